@@ -1,0 +1,446 @@
+#include "graybox/expr/expr.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "node.h"
+
+namespace graybox::expr {
+namespace internal {
+namespace {
+
+std::atomic<std::uint64_t> next_id{1};
+
+struct Key {
+  Op op;
+  std::uint64_t value_bits;
+  std::uint64_t a0, a1, a2;
+  bool operator==(const Key& o) const {
+    return op == o.op && value_bits == o.value_bits && a0 == o.a0 && a1 == o.a1 && a2 == o.a2;
+  }
+};
+
+struct KeyHash {
+  std::size_t operator()(const Key& k) const {
+    std::uint64_t h = static_cast<std::uint64_t>(k.op) * 0x9E3779B97F4A7C15ULL;
+    for (std::uint64_t v : {k.value_bits, k.a0, k.a1, k.a2}) {
+      h ^= v + 0x9E3779B97F4A7C15ULL + (h << 6) + (h >> 2);
+    }
+    return static_cast<std::size_t>(h);
+  }
+};
+
+// The hash-consing table. Entries hold weak references: a node lives as long as some Expr holds
+// it; expired entries are swept when the table has doubled since the last sweep.
+class NodeTable {
+ public:
+  std::shared_ptr<const Node> Intern(const Key& key, Node&& proto) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = table_.find(key);
+    if (it != table_.end()) {
+      if (auto alive = it->second.lock()) return alive;
+    }
+    auto node = std::make_shared<Node>(std::move(proto));
+    node->id = next_id.fetch_add(1, std::memory_order_relaxed);
+    std::shared_ptr<const Node> result = node;
+    if (it != table_.end()) {
+      it->second = result;
+    } else {
+      table_.emplace(key, result);
+      if (table_.size() > 2 * swept_size_ + 1024) Sweep();
+    }
+    return result;
+  }
+
+ private:
+  void Sweep() {
+    for (auto it = table_.begin(); it != table_.end();) {
+      if (it->second.expired()) {
+        it = table_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    swept_size_ = table_.size();
+  }
+
+  std::mutex mutex_;
+  std::unordered_map<Key, std::weak_ptr<const Node>, KeyHash> table_;
+  std::size_t swept_size_ = 0;
+};
+
+NodeTable& Table() {
+  static NodeTable* table = new NodeTable();  // never destroyed: Exprs may outlive statics
+  return *table;
+}
+
+std::uint64_t Bits(double v) {
+  std::uint64_t b;
+  std::memcpy(&b, &v, sizeof b);
+  return b;
+}
+
+std::shared_ptr<const Node> MakeConstant(double v) {
+  if (v == 0.0) v = 0.0;  // one zero: -0.0 and 0.0 fold to the same node
+  Node proto;
+  proto.op = Op::kConstant;
+  proto.value = v;
+  Key key{Op::kConstant, Bits(v), 0, 0, 0};
+  return Table().Intern(key, std::move(proto));
+}
+
+// Iteratively released children, so destroying a long chain does not recurse deeply.
+thread_local std::vector<std::shared_ptr<const Node>>* pending_release = nullptr;
+
+}  // namespace
+
+Node::~Node() {
+  std::vector<std::shared_ptr<const Node>> local;
+  const bool owner = pending_release == nullptr;
+  if (owner) pending_release = &local;
+  for (auto& a : args) {
+    if (a) pending_release->push_back(std::move(a));
+  }
+  if (owner) {
+    while (!local.empty()) {
+      auto p = std::move(local.back());
+      local.pop_back();
+      p.reset();
+    }
+    pending_release = nullptr;
+  }
+}
+
+std::vector<const Node*> Roots(const std::vector<Expr>& exprs) {
+  std::vector<const Node*> roots;
+  roots.reserve(exprs.size());
+  for (const Expr& e : exprs) roots.push_back(e.node());
+  return roots;
+}
+
+std::vector<const Node*> TopologicalOrder(const std::vector<const Node*>& roots) {
+  std::vector<const Node*> order;
+  std::unordered_map<const Node*, bool> visited;  // true once emitted
+  std::vector<std::pair<const Node*, int>> stack;
+  for (const Node* root : roots) {
+    if (visited.count(root)) continue;
+    stack.push_back({root, 0});
+    visited[root] = false;
+    while (!stack.empty()) {
+      auto& [n, next] = stack.back();
+      const int arity = Arity(n->op);
+      if (next < arity) {
+        const Node* child = n->args[next++].get();
+        if (!visited.count(child)) {
+          visited[child] = false;
+          stack.push_back({child, 0});
+        }
+      } else {
+        visited[n] = true;
+        order.push_back(n);
+        stack.pop_back();
+      }
+    }
+  }
+  return order;
+}
+
+Expr Share(const Node* node) {
+  // Every node is created by make_shared in NodeTable, so it is owned by a control block; the
+  // caller's raw pointer comes from a live Expr, which keeps it alive.
+  return Expr(node->shared_from_this());
+}
+
+}  // namespace internal
+
+using internal::Node;
+
+namespace {
+
+Expr MakeRaw(Op op, const Expr* a) {
+  Node proto;
+  proto.op = op;
+  const int arity = Arity(op);
+  std::uint64_t ids[3] = {0, 0, 0};
+  for (int i = 0; i < arity; ++i) {
+    proto.args[i] = a[i].node()->shared_from_this();
+    ids[i] = a[i].Id();
+    proto.depends_on_symbols = proto.depends_on_symbols || a[i].DependsOnSymbols();
+  }
+  internal::Key key{op, 0, ids[0], ids[1], ids[2]};
+  return Expr(internal::Table().Intern(key, std::move(proto)));
+}
+
+// Simplifications of the trivial cases; returns true and sets `out` when one applies.
+bool Simplify(Op op, const Expr* a, Expr* out) {
+  const Expr& x = a[0];
+  const Expr& y = a[1];
+  switch (op) {
+    case Op::kAdd:
+      if (x.IsZero()) return *out = y, true;
+      if (y.IsZero()) return *out = x, true;
+      return false;
+    case Op::kSub:
+      if (y.IsZero()) return *out = x, true;
+      if (x.IsZero()) return *out = -y, true;
+      if (x.IsSame(y)) return *out = Expr(0.0), true;
+      return false;
+    case Op::kMul:
+      if (x.IsZero() || y.IsZero()) return *out = Expr(0.0), true;
+      if (x.IsOne()) return *out = y, true;
+      if (y.IsOne()) return *out = x, true;
+      if (x.IsConstant(-1.0)) return *out = -y, true;
+      if (y.IsConstant(-1.0)) return *out = -x, true;
+      return false;
+    case Op::kDiv:
+      if (y.IsOne()) return *out = x, true;
+      if (x.IsZero()) return *out = Expr(0.0), true;
+      return false;
+    case Op::kNeg:
+      if (x.op() == Op::kNeg) return *out = x.Arg(0), true;
+      return false;
+    case Op::kPow:
+      if (y.IsOne()) return *out = x, true;
+      if (y.IsZero()) return *out = Expr(1.0), true;
+      return false;
+    case Op::kIfElse:
+      if (x.IsConstant()) return *out = (x.Value() != 0.0 ? a[1] : a[2]), true;
+      if (a[1].IsSame(a[2])) return *out = a[1], true;
+      return false;
+    default:
+      return false;
+  }
+}
+
+Expr MakeOp(Op op, Expr a0, Expr a1 = Expr(), Expr a2 = Expr()) {
+  Expr a[3] = {std::move(a0), std::move(a1), std::move(a2)};
+  const int arity = Arity(op);
+  bool all_constant = true;
+  for (int i = 0; i < arity; ++i) all_constant = all_constant && a[i].IsConstant();
+  if (all_constant) {
+    double v[3] = {0, 0, 0};
+    for (int i = 0; i < arity; ++i) v[i] = a[i].Value();
+    return Expr(EvaluateOp(op, v));
+  }
+  Expr simplified;
+  if (Simplify(op, a, &simplified)) return simplified;
+  if (IsCommutative(op) && a[1].Id() < a[0].Id()) std::swap(a[0], a[1]);
+  return MakeRaw(op, a);
+}
+
+}  // namespace
+
+Expr::Expr() : Expr(0.0) {}
+Expr::Expr(double value) : node_(internal::MakeConstant(value)) {}
+
+Expr Expr::Symbol(const std::string& name) {
+  Node proto;
+  proto.op = Op::kSymbol;
+  proto.name = name;
+  proto.depends_on_symbols = true;
+  // Symbols are never merged: the key carries a fresh id.
+  static std::atomic<std::uint64_t> symbol_counter{1};
+  internal::Key key{Op::kSymbol, symbol_counter.fetch_add(1), 0, 0, 0};
+  return Expr(internal::Table().Intern(key, std::move(proto)));
+}
+
+std::vector<Expr> Expr::Symbols(const std::string& name, int n) {
+  std::vector<Expr> s;
+  s.reserve(n);
+  for (int i = 0; i < n; ++i) s.push_back(Symbol(name + "_" + std::to_string(i)));
+  return s;
+}
+
+Expr Expr::Make(Op op, const std::vector<Expr>& args) {
+  if (op == Op::kConstant || op == Op::kSymbol) {
+    throw std::invalid_argument("Expr::Make: expected an operation, got a constant or symbol op");
+  }
+  if (static_cast<int>(args.size()) != Arity(op)) {
+    throw std::invalid_argument(std::string("Expr::Make(") + OpName(op) + "): expected " +
+                                std::to_string(Arity(op)) + " arguments, got " +
+                                std::to_string(args.size()));
+  }
+  return MakeOp(op, args[0], args.size() > 1 ? args[1] : Expr(),
+                args.size() > 2 ? args[2] : Expr());
+}
+
+Op Expr::op() const { return node_->op; }
+bool Expr::IsConstant(double v) const { return node_->op == Op::kConstant && node_->value == v; }
+double Expr::Value() const {
+  if (node_->op != Op::kConstant) {
+    throw std::logic_error("Expr::Value: expected a constant, got " + ToString());
+  }
+  return node_->value;
+}
+const std::string& Expr::Name() const { return node_->name; }
+Expr Expr::Arg(int i) const {
+  if (i < 0 || i >= NumArgs()) {
+    throw std::out_of_range("Expr::Arg: expected index in [0, " + std::to_string(NumArgs()) +
+                            "), got " + std::to_string(i));
+  }
+  return Expr(node_->args[i]);
+}
+std::uint64_t Expr::Id() const { return node_->id; }
+bool Expr::DependsOnSymbols() const { return node_->depends_on_symbols; }
+std::size_t Expr::CountNodes() const { return internal::TopologicalOrder({node()}).size(); }
+
+std::size_t CountNodes(const std::vector<Expr>& exprs) {
+  return internal::TopologicalOrder(internal::Roots(exprs)).size();
+}
+
+namespace {
+void Render(const Node* n, std::ostream& os) {
+  switch (n->op) {
+    case Op::kConstant:
+      os << n->value;
+      return;
+    case Op::kSymbol:
+      os << n->name;
+      return;
+    case Op::kAdd:
+    case Op::kSub:
+    case Op::kMul:
+    case Op::kDiv:
+    case Op::kLt:
+    case Op::kLe:
+    case Op::kEq:
+    case Op::kNe:
+    case Op::kAnd:
+    case Op::kOr:
+      os << '(';
+      Render(n->args[0].get(), os);
+      os << OpName(n->op);
+      Render(n->args[1].get(), os);
+      os << ')';
+      return;
+    case Op::kNeg:
+      os << "(-";
+      Render(n->args[0].get(), os);
+      os << ')';
+      return;
+    default: {
+      os << OpName(n->op) << '(';
+      for (int i = 0; i < Arity(n->op); ++i) {
+        if (i) os << ", ";
+        Render(n->args[i].get(), os);
+      }
+      os << ')';
+    }
+  }
+}
+}  // namespace
+
+std::string Expr::ToString() const {
+  std::ostringstream os;
+  os.precision(17);
+  Render(node(), os);
+  return os.str();
+}
+
+std::ostream& operator<<(std::ostream& os, const Expr& e) { return os << e.ToString(); }
+
+Expr& Expr::operator+=(const Expr& b) { return *this = *this + b; }
+Expr& Expr::operator-=(const Expr& b) { return *this = *this - b; }
+Expr& Expr::operator*=(const Expr& b) { return *this = *this * b; }
+Expr& Expr::operator/=(const Expr& b) { return *this = *this / b; }
+
+Expr operator+(const Expr& a, const Expr& b) { return MakeOp(Op::kAdd, a, b); }
+Expr operator-(const Expr& a, const Expr& b) { return MakeOp(Op::kSub, a, b); }
+Expr operator*(const Expr& a, const Expr& b) { return MakeOp(Op::kMul, a, b); }
+Expr operator/(const Expr& a, const Expr& b) { return MakeOp(Op::kDiv, a, b); }
+Expr operator-(const Expr& a) { return MakeOp(Op::kNeg, a); }
+
+Expr pow(const Expr& x, const Expr& y) { return MakeOp(Op::kPow, x, y); }
+Expr sqrt(const Expr& x) { return MakeOp(Op::kSqrt, x); }
+Expr exp(const Expr& x) { return MakeOp(Op::kExp, x); }
+Expr log(const Expr& x) { return MakeOp(Op::kLog, x); }
+Expr sin(const Expr& x) { return MakeOp(Op::kSin, x); }
+Expr cos(const Expr& x) { return MakeOp(Op::kCos, x); }
+Expr tan(const Expr& x) { return MakeOp(Op::kTan, x); }
+Expr atan(const Expr& x) { return MakeOp(Op::kAtan, x); }
+Expr atan2(const Expr& y, const Expr& x) { return MakeOp(Op::kAtan2, y, x); }
+Expr tanh(const Expr& x) { return MakeOp(Op::kTanh, x); }
+Expr abs(const Expr& x) { return MakeOp(Op::kAbs, x); }
+Expr fabs(const Expr& x) { return MakeOp(Op::kAbs, x); }
+Expr erf(const Expr& x) { return MakeOp(Op::kErf, x); }
+Expr min(const Expr& a, const Expr& b) { return MakeOp(Op::kMin, a, b); }
+Expr max(const Expr& a, const Expr& b) { return MakeOp(Op::kMax, a, b); }
+Expr square(const Expr& x) { return x * x; }
+Expr sigmoid(const Expr& x) { return MakeOp(Op::kSigmoid, x); }
+Expr softplus(const Expr& x) { return MakeOp(Op::kSoftplus, x); }
+Expr sign(const Expr& x) { return MakeOp(Op::kSign, x); }
+
+Expr smooth_abs(const Expr& x, const Expr& w) { return sqrt(x * x + w * w) - w; }
+Expr smooth_sign(const Expr& x, const Expr& w) { return tanh(x / w); }
+Expr smooth_max(const Expr& a, const Expr& b, const Expr& w) {
+  const Expr d = a - b;
+  return 0.5 * (a + b + sqrt(d * d + w * w));
+}
+Expr smooth_min(const Expr& a, const Expr& b, const Expr& w) {
+  const Expr d = a - b;
+  return 0.5 * (a + b - sqrt(d * d + w * w));
+}
+
+Expr lt(const Expr& a, const Expr& b) { return MakeOp(Op::kLt, a, b); }
+Expr le(const Expr& a, const Expr& b) { return MakeOp(Op::kLe, a, b); }
+Expr gt(const Expr& a, const Expr& b) { return MakeOp(Op::kLt, b, a); }
+Expr ge(const Expr& a, const Expr& b) { return MakeOp(Op::kLe, b, a); }
+Expr eq(const Expr& a, const Expr& b) { return MakeOp(Op::kEq, a, b); }
+Expr ne(const Expr& a, const Expr& b) { return MakeOp(Op::kNe, a, b); }
+Expr logical_and(const Expr& a, const Expr& b) { return MakeOp(Op::kAnd, a, b); }
+Expr logical_or(const Expr& a, const Expr& b) { return MakeOp(Op::kOr, a, b); }
+Expr logical_not(const Expr& a) { return MakeOp(Op::kNot, a); }
+Expr if_else(const Expr& c, const Expr& a, const Expr& b) { return MakeOp(Op::kIfElse, c, a, b); }
+
+std::vector<Expr> Substitute(const std::vector<Expr>& exprs, const std::vector<Expr>& from,
+                             const std::vector<Expr>& to) {
+  if (from.size() != to.size()) {
+    throw std::invalid_argument("Substitute: expected as many replacements as symbols (" +
+                                std::to_string(from.size()) + "), got " +
+                                std::to_string(to.size()));
+  }
+  std::unordered_map<const Node*, Expr> map;
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    if (!from[i].IsSymbol()) {
+      throw std::invalid_argument("Substitute: expected a symbol at position " +
+                                  std::to_string(i) + ", got " + from[i].ToString());
+    }
+    map[from[i].node()] = to[i];
+  }
+  const auto order = internal::TopologicalOrder(internal::Roots(exprs));
+  for (const Node* n : order) {
+    if (map.count(n)) continue;
+    if (!n->depends_on_symbols || n->op == Op::kSymbol) {
+      map[n] = internal::Share(n);
+      continue;
+    }
+    Expr a[3];
+    bool changed = false;
+    for (int i = 0; i < Arity(n->op); ++i) {
+      a[i] = map.at(n->args[i].get());
+      changed = changed || a[i].node() != n->args[i].get();
+    }
+    map[n] = changed ? MakeOp(n->op, a[0], a[1], a[2]) : internal::Share(n);
+  }
+  std::vector<Expr> out;
+  out.reserve(exprs.size());
+  for (const Expr& e : exprs) out.push_back(map.at(e.node()));
+  return out;
+}
+
+std::vector<Expr> FreeSymbols(const std::vector<Expr>& exprs) {
+  std::vector<Expr> symbols;
+  for (const Node* n : internal::TopologicalOrder(internal::Roots(exprs))) {
+    if (n->op == Op::kSymbol) symbols.push_back(internal::Share(n));
+  }
+  return symbols;
+}
+
+}  // namespace graybox::expr

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# graybox set-up: installs missing Debian 12 packages (when root), then configures and builds.
+# Usage: tools/setup.sh [build-dir] [extra cmake args...]
+# Sourced by tools/main.sh and tools/test.sh; safe to run repeatedly.
+set -euo pipefail
+
+GRAYBOX_PACKAGES=(
+  g++ make cmake pkg-config git clang-format
+  libeigen3-dev coinor-libipopt-dev libceres-dev libsuitesparse-dev libsundials-dev
+  libmatio-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
+)
+
+graybox_install_packages() {
+  local missing=()
+  for p in "${GRAYBOX_PACKAGES[@]}"; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+      missing+=("$p")
+    fi
+  done
+  if [ ${#missing[@]} -eq 0 ]; then
+    return 0
+  fi
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "graybox: missing Debian packages: ${missing[*]}" >&2
+    echo "graybox: run as root, or install them with: sudo apt-get install ${missing[*]}" >&2
+    exit 1
+  fi
+  echo "graybox: installing ${#missing[@]} missing packages: ${missing[*]}"
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+graybox_build() {
+  local build_dir=$1
+  shift
+  cmake -S "$GRAYBOX_ROOT" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  cmake --build "$build_dir" -j "$(nproc)"
+}
+
+GRAYBOX_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+if [ "${BASH_SOURCE[0]}" = "$0" ]; then
+  graybox_install_packages
+  graybox_build "${1:-$GRAYBOX_ROOT/build}" "${@:2}"
+fi

@@ -53,36 +53,96 @@ std::string Statement(const Instruction& in) {
   const std::string c = "w" + std::to_string(in.c);
   std::string rhs;
   switch (in.op) {
-    case Op::kAdd: rhs = a + " + " + b; break;
-    case Op::kSub: rhs = a + " - " + b; break;
-    case Op::kMul: rhs = a + " * " + b; break;
-    case Op::kDiv: rhs = a + " / " + b; break;
-    case Op::kNeg: rhs = "-" + a; break;
-    case Op::kPow: rhs = "pow(" + a + ", " + b + ")"; break;
-    case Op::kSqrt: rhs = "sqrt(" + a + ")"; break;
-    case Op::kExp: rhs = "exp(" + a + ")"; break;
-    case Op::kLog: rhs = "log(" + a + ")"; break;
-    case Op::kSin: rhs = "sin(" + a + ")"; break;
-    case Op::kCos: rhs = "cos(" + a + ")"; break;
-    case Op::kTan: rhs = "tan(" + a + ")"; break;
-    case Op::kAtan: rhs = "atan(" + a + ")"; break;
-    case Op::kAtan2: rhs = "atan2(" + a + ", " + b + ")"; break;
-    case Op::kTanh: rhs = "tanh(" + a + ")"; break;
-    case Op::kSigmoid: rhs = "gb_sigmoid(" + a + ")"; break;
-    case Op::kSoftplus: rhs = "gb_softplus(" + a + ")"; break;
-    case Op::kAbs: rhs = "fabs(" + a + ")"; break;
-    case Op::kSign: rhs = "gb_sign(" + a + ")"; break;
-    case Op::kMin: rhs = "gb_min(" + a + ", " + b + ")"; break;
-    case Op::kMax: rhs = "gb_max(" + a + ", " + b + ")"; break;
-    case Op::kErf: rhs = "erf(" + a + ")"; break;
-    case Op::kLt: rhs = "(" + a + " < " + b + ") ? 1.0 : 0.0"; break;
-    case Op::kLe: rhs = "(" + a + " <= " + b + ") ? 1.0 : 0.0"; break;
-    case Op::kEq: rhs = "(" + a + " == " + b + ") ? 1.0 : 0.0"; break;
-    case Op::kNe: rhs = "(" + a + " != " + b + ") ? 1.0 : 0.0"; break;
-    case Op::kAnd: rhs = "(" + a + " != 0.0 && " + b + " != 0.0) ? 1.0 : 0.0"; break;
-    case Op::kOr: rhs = "(" + a + " != 0.0 || " + b + " != 0.0) ? 1.0 : 0.0"; break;
-    case Op::kNot: rhs = "(" + a + " == 0.0) ? 1.0 : 0.0"; break;
-    case Op::kIfElse: rhs = "(" + a + " != 0.0) ? " + b + " : " + c; break;
+    case Op::kAdd:
+      rhs = a + " + " + b;
+      break;
+    case Op::kSub:
+      rhs = a + " - " + b;
+      break;
+    case Op::kMul:
+      rhs = a + " * " + b;
+      break;
+    case Op::kDiv:
+      rhs = a + " / " + b;
+      break;
+    case Op::kNeg:
+      rhs = "-" + a;
+      break;
+    case Op::kPow:
+      rhs = "pow(" + a + ", " + b + ")";
+      break;
+    case Op::kSqrt:
+      rhs = "sqrt(" + a + ")";
+      break;
+    case Op::kExp:
+      rhs = "exp(" + a + ")";
+      break;
+    case Op::kLog:
+      rhs = "log(" + a + ")";
+      break;
+    case Op::kSin:
+      rhs = "sin(" + a + ")";
+      break;
+    case Op::kCos:
+      rhs = "cos(" + a + ")";
+      break;
+    case Op::kTan:
+      rhs = "tan(" + a + ")";
+      break;
+    case Op::kAtan:
+      rhs = "atan(" + a + ")";
+      break;
+    case Op::kAtan2:
+      rhs = "atan2(" + a + ", " + b + ")";
+      break;
+    case Op::kTanh:
+      rhs = "tanh(" + a + ")";
+      break;
+    case Op::kSigmoid:
+      rhs = "gb_sigmoid(" + a + ")";
+      break;
+    case Op::kSoftplus:
+      rhs = "gb_softplus(" + a + ")";
+      break;
+    case Op::kAbs:
+      rhs = "fabs(" + a + ")";
+      break;
+    case Op::kSign:
+      rhs = "gb_sign(" + a + ")";
+      break;
+    case Op::kMin:
+      rhs = "gb_min(" + a + ", " + b + ")";
+      break;
+    case Op::kMax:
+      rhs = "gb_max(" + a + ", " + b + ")";
+      break;
+    case Op::kErf:
+      rhs = "erf(" + a + ")";
+      break;
+    case Op::kLt:
+      rhs = "(" + a + " < " + b + ") ? 1.0 : 0.0";
+      break;
+    case Op::kLe:
+      rhs = "(" + a + " <= " + b + ") ? 1.0 : 0.0";
+      break;
+    case Op::kEq:
+      rhs = "(" + a + " == " + b + ") ? 1.0 : 0.0";
+      break;
+    case Op::kNe:
+      rhs = "(" + a + " != " + b + ") ? 1.0 : 0.0";
+      break;
+    case Op::kAnd:
+      rhs = "(" + a + " != 0.0 && " + b + " != 0.0) ? 1.0 : 0.0";
+      break;
+    case Op::kOr:
+      rhs = "(" + a + " != 0.0 || " + b + " != 0.0) ? 1.0 : 0.0";
+      break;
+    case Op::kNot:
+      rhs = "(" + a + " == 0.0) ? 1.0 : 0.0";
+      break;
+    case Op::kIfElse:
+      rhs = "(" + a + " != 0.0) ? " + b + " : " + c;
+      break;
     case Op::kConstant:
     case Op::kSymbol:
       throw std::logic_error("GenerateC: leaf in instruction stream");
@@ -103,18 +163,20 @@ std::string GenerateC(const Function& f, const std::string& symbol) {
   if (!IsIdentifier(symbol)) {
     throw std::invalid_argument("GenerateC: expected a C identifier, got '" + symbol + "'");
   }
-  const Tape tape([&] {
-    std::vector<std::vector<Expr>> ins;
-    for (int i = 0; i < f.NumInputs(); ++i) ins.push_back(f.InputSymbols(i));
-    return ins;
-  }(), [&] {
-    std::vector<std::vector<Expr>> outs;
-    for (int j = 0; j < f.NumOutputs(); ++j) outs.push_back(f.OutputExprs(j));
-    return outs;
-  }());
+  const Tape tape(
+      [&] {
+        std::vector<std::vector<Expr>> ins;
+        for (int i = 0; i < f.NumInputs(); ++i) ins.push_back(f.InputSymbols(i));
+        return ins;
+      }(),
+      [&] {
+        std::vector<std::vector<Expr>> outs;
+        for (int j = 0; j < f.NumOutputs(); ++j) outs.push_back(f.OutputExprs(j));
+        return outs;
+      }());
   std::ostringstream os;
-  os << "/* Generated by graybox libexpr from Function '" << f.name() << "': "
-     << tape.code().size() << " operations, " << tape.num_registers() << " registers. */\n";
+  os << "/* Generated by graybox libexpr from Function '" << f.name() << "': " << tape.code().size()
+     << " operations, " << tape.num_registers() << " registers. */\n";
   os << kPreamble;
   os << "int " << symbol << "(const double* const* arg, double* const* res) {\n";
   if (tape.num_registers() > 0) {
@@ -179,8 +241,8 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
     std::ifstream in(log);
     std::stringstream ss;
     ss << in.rdbuf();
-    fallback_reason_ = "compiler command failed (exit status " + std::to_string(rc) +
-                       "): " + cmd + "\n" + Trim(ss.str(), 10);
+    fallback_reason_ = "compiler command failed (exit status " + std::to_string(rc) + "): " + cmd +
+                       "\n" + Trim(ss.str(), 10);
   } else {
     void* handle = dlopen(lib.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (handle == nullptr) {
@@ -214,8 +276,8 @@ EvalStatus CompiledFunction::Evaluate(const double* const* inputs, double* const
         status.index = k;
         status.value = outputs[j][k];
         std::ostringstream os;
-        os << "Function '" << function_.name() << "': output '" << function_.OutputName(j)
-           << "'[" << k << "] = " << outputs[j][k];
+        os << "Function '" << function_.name() << "': output '" << function_.OutputName(j) << "'["
+           << k << "] = " << outputs[j][k];
         status.message = os.str();
         break;
       }

@@ -98,8 +98,7 @@ DerivativeCheckResult CheckHessian(const Function& f, const std::string& output,
                                    const DerivativeCheckOptions& options) {
   const Function grad = f.Gradient(output, input);
   const Function hess = f.Hessian(output, input);
-  return CheckDerivative(grad, grad.OutputName(0), input, hess, hess.OutputName(0), point,
-                         options);
+  return CheckDerivative(grad, grad.OutputName(0), input, hess, hess.OutputName(0), point, options);
 }
 
 }  // namespace graybox::expr

@@ -207,8 +207,7 @@ std::vector<Expr> SparseJacobian(const std::vector<Expr>& outputs, const std::ve
     const auto dirs = ForwardDerivative(outputs, inputs, seeds);
     for (int k = 0; k < sp.nnz(); ++k) nz[k] = dirs[col_color[nz_col[k]]][sp.row()[k]];
   } else {
-    std::vector<std::vector<Expr>> seeds(nrow_colors,
-                                         std::vector<Expr>(outputs.size(), Expr(0.0)));
+    std::vector<std::vector<Expr>> seeds(nrow_colors, std::vector<Expr>(outputs.size(), Expr(0.0)));
     for (std::size_t i = 0; i < outputs.size(); ++i) seeds[row_color[i]][i] = Expr(1.0);
     const auto dirs = ReverseDerivative(outputs, inputs, seeds);
     for (int k = 0; k < sp.nnz(); ++k) nz[k] = dirs[row_color[sp.row()[k]]][nz_col[k]];

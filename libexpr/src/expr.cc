@@ -409,8 +409,8 @@ std::vector<Expr> Substitute(const std::vector<Expr>& exprs, const std::vector<E
   std::unordered_map<const Node*, Expr> map;
   for (std::size_t i = 0; i < from.size(); ++i) {
     if (!from[i].IsSymbol()) {
-      throw std::invalid_argument("Substitute: expected a symbol at position " +
-                                  std::to_string(i) + ", got " + from[i].ToString());
+      throw std::invalid_argument("Substitute: expected a symbol at position " + std::to_string(i) +
+                                  ", got " + from[i].ToString());
     }
     map[from[i].node()] = to[i];
   }

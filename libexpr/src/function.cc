@@ -19,10 +19,9 @@ FunctionIo::FunctionIo(std::string n, std::vector<Expr> e)
 FunctionIo::FunctionIo(std::string n, std::vector<Expr> e, Sparsity s)
     : name(std::move(n)), exprs(std::move(e)), sparsity(std::move(s)) {
   if (sparsity.nnz() != static_cast<int>(exprs.size())) {
-    throw std::invalid_argument("FunctionIo '" + name + "': expected " +
-                                std::to_string(sparsity.nnz()) +
-                                " expressions (the sparsity's nonzeros), got " +
-                                std::to_string(exprs.size()));
+    throw std::invalid_argument(
+        "FunctionIo '" + name + "': expected " + std::to_string(sparsity.nnz()) +
+        " expressions (the sparsity's nonzeros), got " + std::to_string(exprs.size()));
   }
 }
 
@@ -235,7 +234,8 @@ EvalStatus Function::Evaluate(const double* const* inputs, double* const* output
   return status;
 }
 
-std::vector<Eigen::VectorXd> Function::operator()(const std::vector<Eigen::VectorXd>& inputs) const {
+std::vector<Eigen::VectorXd> Function::operator()(
+    const std::vector<Eigen::VectorXd>& inputs) const {
   if (static_cast<int>(inputs.size()) != NumInputs()) {
     throw std::invalid_argument("Function '" + name() + "': expected " +
                                 std::to_string(NumInputs()) + " inputs, got " +
@@ -245,8 +245,8 @@ std::vector<Eigen::VectorXd> Function::operator()(const std::vector<Eigen::Vecto
   for (int i = 0; i < NumInputs(); ++i) {
     if (inputs[i].size() != InputSize(i)) {
       throw std::invalid_argument("Function '" + name() + "': input '" + InputName(i) +
-                                  "': expected size " + std::to_string(InputSize(i)) +
-                                  ", got " + std::to_string(inputs[i].size()));
+                                  "': expected size " + std::to_string(InputSize(i)) + ", got " +
+                                  std::to_string(inputs[i].size()));
     }
     in[i] = inputs[i].data();
   }
@@ -335,8 +335,8 @@ std::vector<std::vector<Expr>> Function::Call(const std::vector<std::vector<Expr
   for (int i = 0; i < NumInputs(); ++i) {
     if (static_cast<int>(args[i].size()) != InputSize(i)) {
       throw std::invalid_argument("Function '" + name() + "'::Call: argument '" + InputName(i) +
-                                  "': expected size " + std::to_string(InputSize(i)) +
-                                  ", got " + std::to_string(args[i].size()));
+                                  "': expected size " + std::to_string(InputSize(i)) + ", got " +
+                                  std::to_string(args[i].size()));
     }
     from.insert(from.end(), data_->inputs[i].exprs.begin(), data_->inputs[i].exprs.end());
     to.insert(to.end(), args[i].begin(), args[i].end());
@@ -415,7 +415,8 @@ Function Function::Reverse(int num_directions) const {
   for (int d = 0; d < num_directions; ++d) {
     std::size_t offset = 0;
     for (int i = 0; i < NumInputs(); ++i) {
-      std::vector<Expr> a(adjoints[d].begin() + offset, adjoints[d].begin() + offset + InputSize(i));
+      std::vector<Expr> a(adjoints[d].begin() + offset,
+                          adjoints[d].begin() + offset + InputSize(i));
       offset += InputSize(i);
       outs.emplace_back("adj" + std::to_string(d) + "_" + InputName(i), std::move(a));
     }
@@ -424,8 +425,7 @@ Function Function::Reverse(int num_directions) const {
 }
 
 Sparsity Function::JacobianSparsity(const std::string& output, const std::string& input) const {
-  return expr::JacobianSparsity(OutputExprs(OutputIndex(output)),
-                                InputSymbols(InputIndex(input)));
+  return expr::JacobianSparsity(OutputExprs(OutputIndex(output)), InputSymbols(InputIndex(input)));
 }
 
 Function Function::Jacobian(const std::string& output, const std::string& input) const {
@@ -439,8 +439,8 @@ Function Function::Jacobian(const std::string& output, const std::string& input)
 Function Function::Gradient(const std::string& output, const std::string& input) const {
   const int j = OutputIndex(output);
   if (OutputSize(j) != 1) {
-    throw std::invalid_argument("Function '" + name() + "'::Gradient: expected output '" +
-                                output + "' with 1 entry, got " + std::to_string(OutputSize(j)));
+    throw std::invalid_argument("Function '" + name() + "'::Gradient: expected output '" + output +
+                                "' with 1 entry, got " + std::to_string(OutputSize(j)));
   }
   std::vector<Expr> g = expr::Gradient(OutputExprs(j)[0], InputSymbols(InputIndex(input)));
   const std::string n = "grad_" + output + "_" + input;
@@ -450,8 +450,8 @@ Function Function::Gradient(const std::string& output, const std::string& input)
 Function Function::Hessian(const std::string& output, const std::string& input) const {
   const int j = OutputIndex(output);
   if (OutputSize(j) != 1) {
-    throw std::invalid_argument("Function '" + name() + "'::Hessian: expected output '" +
-                                output + "' with 1 entry, got " + std::to_string(OutputSize(j)));
+    throw std::invalid_argument("Function '" + name() + "'::Hessian: expected output '" + output +
+                                "' with 1 entry, got " + std::to_string(OutputSize(j)));
   }
   const std::vector<Expr>& x = InputSymbols(InputIndex(input));
   const std::vector<Expr> g = expr::Gradient(OutputExprs(j)[0], x);

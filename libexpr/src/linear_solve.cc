@@ -62,7 +62,7 @@ ExprMatrix SolveSpd(const ExprMatrix& a, const ExprMatrix& b) {
       for (Eigen::Index k = 0; k < i; ++k) x(i, c) -= l(i, k) * x(k, c);
     }
     for (Eigen::Index i = 0; i < n; ++i) x(i, c) = x(i, c) / d[i];  // D z = y
-    for (Eigen::Index i = n; i-- > 0;) {  // L^T x = z
+    for (Eigen::Index i = n; i-- > 0;) {                            // L^T x = z
       for (Eigen::Index k = i + 1; k < n; ++k) x(i, c) -= l(k, i) * x(k, c);
     }
   }

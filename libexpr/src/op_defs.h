@@ -16,46 +16,50 @@ inline double SigmoidValue(double x) {
   const double e = std::exp(x);
   return e / (1.0 + e);
 }
-inline double SoftplusValue(double x) { return std::fmax(x, 0.0) + std::log1p(std::exp(-std::fabs(x))); }
-inline double SignValue(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : (x == 0.0 ? 0.0 : x)); }
+inline double SoftplusValue(double x) {
+  return std::fmax(x, 0.0) + std::log1p(std::exp(-std::fabs(x)));
+}
+inline double SignValue(double x) {
+  return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : (x == 0.0 ? 0.0 : x));
+}
 inline double MinValue(double a, double b) { return a <= b ? a : (b < a ? b : a + b); }
 inline double MaxValue(double a, double b) { return a >= b ? a : (b > a ? b : a + b); }
 
 template <Op op>
 struct OpDef;
 
-#define GRAYBOX_UNARY(OP, VALUE, PARTIAL)                                       \
-  template <>                                                                   \
-  struct OpDef<Op::OP> {                                                        \
-    static double F(const double* a) {                                          \
-      const double x = a[0];                                                    \
-      return VALUE;                                                             \
-    }                                                                           \
-    static void D(const Expr* a, const Expr& f, Expr* d) {                      \
-      const Expr& x = a[0];                                                     \
-      (void)x;                                                                  \
-      (void)f;                                                                  \
-      d[0] = PARTIAL;                                                           \
-    }                                                                           \
+#define GRAYBOX_UNARY(OP, VALUE, PARTIAL)                  \
+  template <>                                              \
+  struct OpDef<Op::OP> {                                   \
+    static double F(const double* a) {                     \
+      const double x = a[0];                               \
+      return VALUE;                                        \
+    }                                                      \
+    static void D(const Expr* a, const Expr& f, Expr* d) { \
+      const Expr& x = a[0];                                \
+      (void)x;                                             \
+      (void)f;                                             \
+      d[0] = PARTIAL;                                      \
+    }                                                      \
   };
 
-#define GRAYBOX_BINARY(OP, VALUE, PARTIAL_X, PARTIAL_Y)                         \
-  template <>                                                                   \
-  struct OpDef<Op::OP> {                                                        \
-    static double F(const double* a) {                                          \
-      const double x = a[0];                                                    \
-      const double y = a[1];                                                    \
-      return VALUE;                                                             \
-    }                                                                           \
-    static void D(const Expr* a, const Expr& f, Expr* d) {                      \
-      const Expr& x = a[0];                                                     \
-      const Expr& y = a[1];                                                     \
-      (void)x;                                                                  \
-      (void)y;                                                                  \
-      (void)f;                                                                  \
-      if (x.DependsOnSymbols()) d[0] = PARTIAL_X;                               \
-      if (y.DependsOnSymbols()) d[1] = PARTIAL_Y;                               \
-    }                                                                           \
+#define GRAYBOX_BINARY(OP, VALUE, PARTIAL_X, PARTIAL_Y)    \
+  template <>                                              \
+  struct OpDef<Op::OP> {                                   \
+    static double F(const double* a) {                     \
+      const double x = a[0];                               \
+      const double y = a[1];                               \
+      return VALUE;                                        \
+    }                                                      \
+    static void D(const Expr* a, const Expr& f, Expr* d) { \
+      const Expr& x = a[0];                                \
+      const Expr& y = a[1];                                \
+      (void)x;                                             \
+      (void)y;                                             \
+      (void)f;                                             \
+      if (x.DependsOnSymbols()) d[0] = PARTIAL_X;          \
+      if (y.DependsOnSymbols()) d[1] = PARTIAL_Y;          \
+    }                                                      \
   };
 
 // clang-format off

@@ -18,15 +18,14 @@ Sparsity::Sparsity(int nrow, int ncol, std::vector<int> colind, std::vector<int>
                                 std::to_string(nrow) + "x" + std::to_string(ncol));
   }
   if (static_cast<int>(colind_.size()) != ncol + 1) {
-    throw std::invalid_argument("Sparsity: expected colind of size ncol+1 = " +
-                                std::to_string(ncol + 1) + ", got " +
-                                std::to_string(colind_.size()));
+    throw std::invalid_argument(
+        "Sparsity: expected colind of size ncol+1 = " + std::to_string(ncol + 1) + ", got " +
+        std::to_string(colind_.size()));
   }
   if (colind_[0] != 0 || colind_[ncol] != static_cast<int>(row_.size())) {
-    throw std::invalid_argument("Sparsity: expected colind[0] = 0 and colind[ncol] = nnz = " +
-                                std::to_string(row_.size()) + ", got " +
-                                std::to_string(colind_[0]) + " and " +
-                                std::to_string(colind_[ncol]));
+    throw std::invalid_argument(
+        "Sparsity: expected colind[0] = 0 and colind[ncol] = nnz = " + std::to_string(row_.size()) +
+        ", got " + std::to_string(colind_[0]) + " and " + std::to_string(colind_[ncol]));
   }
   for (int j = 0; j < ncol; ++j) {
     if (colind_[j + 1] < colind_[j]) {
@@ -36,8 +35,7 @@ Sparsity::Sparsity(int nrow, int ncol, std::vector<int> colind, std::vector<int>
     for (int k = colind_[j]; k < colind_[j + 1]; ++k) {
       if (row_[k] < 0 || row_[k] >= nrow) {
         throw std::invalid_argument("Sparsity: expected row in [0, " + std::to_string(nrow) +
-                                    "), got " + std::to_string(row_[k]) + " at " +
-                                    Where("row", k));
+                                    "), got " + std::to_string(row_[k]) + " at " + Where("row", k));
       }
       if (k > colind_[j] && row_[k] <= row_[k - 1]) {
         throw std::invalid_argument("Sparsity: expected strictly ascending rows within column " +
@@ -66,9 +64,8 @@ Sparsity Sparsity::FromTriplets(int nrow, int ncol, const std::vector<std::pair<
     const auto [i, j] = rc[k];
     if (i < 0 || i >= nrow || j < 0 || j >= ncol) {
       throw std::invalid_argument("Sparsity::FromTriplets: entry " + std::to_string(k) + " = (" +
-                                  std::to_string(i) + ", " + std::to_string(j) +
-                                  ") outside a " + std::to_string(nrow) + "x" +
-                                  std::to_string(ncol) + " matrix");
+                                  std::to_string(i) + ", " + std::to_string(j) + ") outside a " +
+                                  std::to_string(nrow) + "x" + std::to_string(ncol) + " matrix");
     }
     cr.push_back({j, i});
   }

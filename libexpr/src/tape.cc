@@ -97,9 +97,9 @@ void Tape::Run(double* r) const {
     const double v[3] = {r[in.a], r[in.b], r[in.c]};
     double result;
     switch (in.op) {
-#define GRAYBOX_EXPR_CASE(e, n, s)     \
-  case Op::e:                          \
-    result = OpDef<Op::e>::F(v);       \
+#define GRAYBOX_EXPR_CASE(e, n, s) \
+  case Op::e:                      \
+    result = OpDef<Op::e>::F(v);   \
     break;
       GRAYBOX_EXPR_OPS_NO_LEAVES(GRAYBOX_EXPR_CASE)
 #undef GRAYBOX_EXPR_CASE

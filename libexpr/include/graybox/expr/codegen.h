@@ -2,15 +2,16 @@
 //
 // GenerateC emits self-contained C99 (only <math.h>) for one Function:
 //     int <symbol>(const double* const* arg, double* const* res);
-// arg[i] points to the entries of input i, res[j] to those of output j (null to skip); it returns 0.
-// The code is straight-line, one local per tape register, and evaluates exactly the operations of
-// the tape with the same formulas (ops.h), so results agree with the tape to the last bit barring
-// compiler contraction (-ffp-contract is set to off by default for that reason).
+// arg[i] points to the entries of input i, res[j] to those of output j (null to skip); it returns
+// 0. The code is straight-line, one local per tape register, and evaluates exactly the operations
+// of the tape with the same formulas (ops.h), so results agree with the tape to the last bit
+// barring compiler contraction (-ffp-contract is set to off by default for that reason).
 //
 // CompiledFunction compiles that code with the system C compiler into a shared object, loads it
 // with dlopen and calls it. When no compiler is found, or compiling or loading fails, it falls back
 // to the tape and says why (IsNative() is false, FallbackReason() explains); the results are the
-// same either way. Compilation takes seconds for large functions: compile once, evaluate many times.
+// same either way. Compilation takes seconds for large functions: compile once, evaluate many
+// times.
 #pragma once
 
 #include <memory>

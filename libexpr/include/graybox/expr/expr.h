@@ -12,8 +12,8 @@
 //   - x*0, 0*x, 0/x and x-x become the constant 0, and if_else(c,a,a) becomes a.
 // NaN semantics: the last line is not IEEE-exact when x evaluates to NaN or +-Inf (IEEE gives NaN).
 // It is what makes derivative sparsity structural (a zero seed stays an exact zero), and it is the
-// convention of every symbolic AD tool. Non-finite values are not hidden: Function evaluation checks
-// every output and reports NaN/Inf to the caller (see function.h).
+// convention of every symbolic AD tool. Non-finite values are not hidden: Function evaluation
+// checks every output and reports NaN/Inf to the caller (see function.h).
 //
 // Thread safety: Exprs may be created and destroyed from several threads at once (the hash-consing
 // table is guarded by a mutex). A single Expr object is as thread-safe as a std::shared_ptr.
@@ -39,7 +39,7 @@ class Expr {
   /// The constant 0.
   Expr();
   /// A constant (implicit, so `x * 2.0` and `Expr e = 1.5` work).
-  Expr(double value);  // NOLINT(google-explicit-constructor)
+  Expr(double value);                                    // NOLINT(google-explicit-constructor)
   Expr(int value) : Expr(static_cast<double>(value)) {}  // NOLINT
 
   /// A new free symbol. Every call creates a distinct symbol, even with an equal name.

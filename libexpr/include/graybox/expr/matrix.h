@@ -68,8 +68,8 @@ ExprMatrix SolveSpd(const ExprMatrix& a, const ExprMatrix& b);
 
 /// Solves A X = B for a general square A with Doolittle LU *without pivoting*: exact whenever all
 /// leading principal minors of A are nonzero at the evaluation point (e.g. diagonally dominant
-/// matrices); otherwise the result is Inf/NaN, which Function evaluation reports. Pivoting cannot be
-/// decided symbolically; use SolveSpd for SPD matrices.
+/// matrices); otherwise the result is Inf/NaN, which Function evaluation reports. Pivoting cannot
+/// be decided symbolically; use SolveSpd for SPD matrices.
 ExprMatrix SolveLu(const ExprMatrix& a, const ExprMatrix& b);
 
 }  // namespace graybox::expr

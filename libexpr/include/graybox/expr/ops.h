@@ -27,35 +27,35 @@ namespace graybox::expr {
 
 // The operations proper (everything but constants and symbols).
 #define GRAYBOX_EXPR_OPS_NO_LEAVES(X) \
-  X(kAdd, 2, "+")           \
-  X(kSub, 2, "-")           \
-  X(kMul, 2, "*")           \
-  X(kDiv, 2, "/")           \
-  X(kNeg, 1, "neg")         \
-  X(kPow, 2, "pow")         \
-  X(kSqrt, 1, "sqrt")       \
-  X(kExp, 1, "exp")         \
-  X(kLog, 1, "log")         \
-  X(kSin, 1, "sin")         \
-  X(kCos, 1, "cos")         \
-  X(kTan, 1, "tan")         \
-  X(kAtan, 1, "atan")       \
-  X(kAtan2, 2, "atan2")     \
-  X(kTanh, 1, "tanh")       \
-  X(kSigmoid, 1, "sigmoid") \
-  X(kSoftplus, 1, "softplus") \
-  X(kAbs, 1, "abs")         \
-  X(kSign, 1, "sign")       \
-  X(kMin, 2, "min")         \
-  X(kMax, 2, "max")         \
-  X(kErf, 1, "erf")         \
-  X(kLt, 2, "<")            \
-  X(kLe, 2, "<=")           \
-  X(kEq, 2, "==")           \
-  X(kNe, 2, "!=")           \
-  X(kAnd, 2, "&&")          \
-  X(kOr, 2, "||")           \
-  X(kNot, 1, "!")           \
+  X(kAdd, 2, "+")                     \
+  X(kSub, 2, "-")                     \
+  X(kMul, 2, "*")                     \
+  X(kDiv, 2, "/")                     \
+  X(kNeg, 1, "neg")                   \
+  X(kPow, 2, "pow")                   \
+  X(kSqrt, 1, "sqrt")                 \
+  X(kExp, 1, "exp")                   \
+  X(kLog, 1, "log")                   \
+  X(kSin, 1, "sin")                   \
+  X(kCos, 1, "cos")                   \
+  X(kTan, 1, "tan")                   \
+  X(kAtan, 1, "atan")                 \
+  X(kAtan2, 2, "atan2")               \
+  X(kTanh, 1, "tanh")                 \
+  X(kSigmoid, 1, "sigmoid")           \
+  X(kSoftplus, 1, "softplus")         \
+  X(kAbs, 1, "abs")                   \
+  X(kSign, 1, "sign")                 \
+  X(kMin, 2, "min")                   \
+  X(kMax, 2, "max")                   \
+  X(kErf, 1, "erf")                   \
+  X(kLt, 2, "<")                      \
+  X(kLe, 2, "<=")                     \
+  X(kEq, 2, "==")                     \
+  X(kNe, 2, "!=")                     \
+  X(kAnd, 2, "&&")                    \
+  X(kOr, 2, "||")                     \
+  X(kNot, 1, "!")                     \
   X(kIfElse, 3, "if_else")
 
 enum class Op : std::uint8_t {

@@ -52,7 +52,17 @@ std::string Statement(const Instruction& in) {
   const std::string b = "w" + std::to_string(in.b);
   const std::string c = "w" + std::to_string(in.c);
   std::string rhs;
-  switch (in.op) {
+  switch (in.code) {
+    case tape_code::kMulAdd:
+      return "  w" + std::to_string(in.out) + " = " + a + " * " + b + " + " + c + ";\n";
+    case tape_code::kMulSub:
+      return "  w" + std::to_string(in.out) + " = " + a + " * " + b + " - " + c + ";\n";
+    case tape_code::kSubMul:
+      return "  w" + std::to_string(in.out) + " = " + c + " - " + a + " * " + b + ";\n";
+    default:
+      break;
+  }
+  switch (static_cast<Op>(in.code)) {
     case Op::kAdd:
       rhs = a + " + " + b;
       break;

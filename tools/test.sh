@@ -6,19 +6,22 @@ set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 graybox_install_packages
 jobs=$(nproc)
+log_dir=$(mktemp -d)
+trap 'rm -rf "$log_dir"' EXIT
 
 echo "== format check"
 "$GRAYBOX_ROOT/tools/check_format.sh"
 
 echo "== Release build and tests"
 graybox_build "$GRAYBOX_ROOT/build"
-ctest --test-dir "$GRAYBOX_ROOT/build" --output-on-failure -j "$jobs"
+ctest --test-dir "$GRAYBOX_ROOT/build" --output-on-failure -j "$jobs" | tee "$log_dir/release.log"
 
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer build of the libexpr tests"
 graybox_build "$GRAYBOX_ROOT/build-asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGRAYBOX_SANITIZE=ON \
   -DGRAYBOX_BUILD_BENCHMARKS=OFF -DGRAYBOX_BUILD_EXAMPLES=OFF
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-  ctest --test-dir "$GRAYBOX_ROOT/build-asan" --output-on-failure -j "$jobs" -L expr
+  ctest --test-dir "$GRAYBOX_ROOT/build-asan" --output-on-failure -j "$jobs" -L expr |
+  tee "$log_dir/asan.log"
 
 echo "== install and find_package(graybox) consumer"
 prefix="$GRAYBOX_ROOT/build/install-test"
@@ -28,4 +31,15 @@ cmake -S "$GRAYBOX_ROOT/tests/consumer" -B "$GRAYBOX_ROOT/build/consumer" -DCMAK
   -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$GRAYBOX_ROOT/build/consumer" -j "$jobs"
 "$GRAYBOX_ROOT/build/consumer/consumer"
-echo "== all checks passed"
+# One closing line over both CTest runs (set -o pipefail has already stopped on any failure).
+passed=0
+failed=0
+for f in "$log_dir"/release.log "$log_dir"/asan.log; do
+  line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests failed out of [0-9]+' "$f" | tail -n 1)
+  total=$(sed -E 's/.* out of ([0-9]+)/\1/' <<<"$line")
+  bad=$(sed -E 's/.*passed, ([0-9]+) tests failed.*/\1/' <<<"$line")
+  passed=$((passed + total - bad))
+  failed=$((failed + bad))
+done
+echo "== all checks passed (format, Release tests, sanitizer tests, install consumer)"
+echo "tests: $passed passed, $failed failed"

@@ -216,6 +216,57 @@ std::vector<Expr> SparseJacobian(const std::vector<Expr>& outputs, const std::ve
   return nz;
 }
 
+std::vector<Expr> SparseHessian(const std::vector<Expr>& gradient, const std::vector<Expr>& inputs,
+                                Sparsity* pattern) {
+  const int n = static_cast<int>(inputs.size());
+  if (gradient.size() != inputs.size()) {
+    throw std::invalid_argument("SparseHessian: expected a gradient of size " + std::to_string(n) +
+                                ", got " + std::to_string(gradient.size()));
+  }
+  const Sparsity detected = JacobianSparsity(gradient, inputs);
+  std::vector<std::pair<int, int>> entries;
+  const std::vector<int> detected_col = detected.ColumnOfNonzeros();
+  for (int k = 0; k < detected.nnz(); ++k) {
+    entries.push_back({detected.row()[k], detected_col[k]});
+    entries.push_back({detected_col[k], detected.row()[k]});
+  }
+  const Sparsity sp = Sparsity::FromTriplets(n, n, entries);
+  int num_star = 0, num_columns = 0;
+  const std::vector<int> star = StarColorSymmetric(sp, &num_star);
+  ColorColumns(sp, &num_columns);
+  if (num_columns <= num_star) {
+    Sparsity jac_pattern;
+    std::vector<Expr> nz = SparseJacobian(gradient, inputs, &jac_pattern);
+    if (jac_pattern == sp) {
+      if (pattern) *pattern = sp;
+      return nz;
+    }
+    // The detected pattern was not symmetric: fall through to the symmetric recovery.
+  }
+  std::vector<std::vector<Expr>> seeds(num_star, std::vector<Expr>(n, Expr(0.0)));
+  for (int j = 0; j < n; ++j) seeds[star[j]][j] = Expr(1.0);
+  const auto dirs = ForwardDerivative(gradient, inputs, seeds);
+  // hits[(row, colour)]: how many columns of that colour have a nonzero in that row.
+  std::unordered_map<std::int64_t, int> hits;
+  const std::vector<int> col = sp.ColumnOfNonzeros();
+  auto key = [&](int row, int colour) { return std::int64_t{row} * num_star + colour; };
+  for (int k = 0; k < sp.nnz(); ++k) ++hits[key(sp.row()[k], star[col[k]])];
+  std::vector<Expr> nz(sp.nnz());
+  for (int k = 0; k < sp.nnz(); ++k) {
+    const int i = sp.row()[k], j = col[k];
+    if (hits[key(i, star[j])] == 1) {
+      nz[k] = dirs[star[j]][i];
+    } else if (hits[key(j, star[i])] == 1) {
+      nz[k] = dirs[star[i]][j];
+    } else {
+      throw std::logic_error("SparseHessian: star colouring does not determine entry (" +
+                             std::to_string(i) + ", " + std::to_string(j) + ")");
+    }
+  }
+  if (pattern) *pattern = sp;
+  return nz;
+}
+
 std::vector<Expr> Gradient(const Expr& f, const std::vector<Expr>& inputs) {
   return ReverseDerivative({f}, inputs, {{Expr(1.0)}})[0];
 }
@@ -238,7 +289,7 @@ Function HessianOfLagrangian(const Function& fn, const std::string& wrt,
   }
   const std::vector<Expr> grad = Gradient(lagrangian, x);
   Sparsity full;
-  const std::vector<Expr> nz = SparseJacobian(grad, x, &full);
+  const std::vector<Expr> nz = SparseHessian(grad, x, &full);
   const Sparsity lower = full.LowerTriangle();
   std::vector<Expr> lower_nz;
   lower_nz.reserve(lower.nnz());

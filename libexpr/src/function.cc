@@ -456,7 +456,7 @@ Function Function::Hessian(const std::string& output, const std::string& input) 
   const std::vector<Expr>& x = InputSymbols(InputIndex(input));
   const std::vector<Expr> g = expr::Gradient(OutputExprs(j)[0], x);
   Sparsity pattern;
-  std::vector<Expr> nz = SparseJacobian(g, x, &pattern);
+  std::vector<Expr> nz = SparseHessian(g, x, &pattern);
   const std::string n = "hess_" + output + "_" + input;
   return Function(name() + "_" + n, CopyInputs(*this), {FunctionIo(n, std::move(nz), pattern)});
 }

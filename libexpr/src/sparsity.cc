@@ -156,4 +156,62 @@ std::vector<int> ColorColumns(const Sparsity& pattern, int* num_colors) {
   return color;
 }
 
+std::vector<int> StarColorSymmetric(const Sparsity& pattern, int* num_colors) {
+  if (pattern.rows() != pattern.cols()) {
+    throw std::invalid_argument("StarColorSymmetric: expected a square pattern, got " +
+                                std::to_string(pattern.rows()) + "x" +
+                                std::to_string(pattern.cols()));
+  }
+  const int n = pattern.cols();
+  // Adjacency lists without the diagonal, symmetrised.
+  std::vector<std::vector<int>> adj(n);
+  const std::vector<int> col = pattern.ColumnOfNonzeros();
+  for (int k = 0; k < pattern.nnz(); ++k) {
+    const int i = pattern.row()[k], j = col[k];
+    if (i == j) continue;
+    adj[i].push_back(j);
+    adj[j].push_back(i);
+  }
+  for (auto& a : adj) {
+    std::sort(a.begin(), a.end());
+    a.erase(std::unique(a.begin(), a.end()), a.end());
+  }
+  std::vector<int> order(n);
+  for (int v = 0; v < n; ++v) order[v] = v;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return adj[a].size() > adj[b].size(); });
+  std::vector<int> color(n, -1);
+  std::vector<int> forbidden;  // forbidden[c] == v marks colour c as unusable for vertex v
+  int ncolors = 0;
+  for (int v : order) {
+    for (int w : adj[v]) {
+      if (color[w] >= 0) forbidden[color[w]] = v;
+    }
+    for (int w : adj[v]) {
+      for (int x : adj[w]) {
+        if (x == v || color[x] < 0) continue;
+        if (color[w] < 0) {
+          forbidden[color[x]] = v;  // v-w-x with w still uncoloured: keep v and x apart
+        } else {
+          for (int y : adj[x]) {
+            if (y != w && color[y] >= 0 && color[y] == color[w]) {
+              forbidden[color[x]] = v;  // v-w-x-y would be two-coloured
+              break;
+            }
+          }
+        }
+      }
+    }
+    int c = 0;
+    while (c < ncolors && forbidden[c] == v) ++c;
+    if (c == ncolors) {
+      ++ncolors;
+      forbidden.push_back(-1);
+    }
+    color[v] = c;
+  }
+  if (num_colors) *num_colors = ncolors;
+  return color;
+}
+
 }  // namespace graybox::expr

@@ -36,6 +36,13 @@ Sparsity JacobianSparsity(const std::vector<Expr>& outputs, const std::vector<Ex
 std::vector<Expr> SparseJacobian(const std::vector<Expr>& outputs, const std::vector<Expr>& inputs,
                                  Sparsity* pattern);
 
+/// The structural nonzeros (CCS order of *pattern, set on return; the pattern is symmetrised) of
+/// the Hessian of a scalar function given its gradient `gradient` (from Gradient()). Uses a star
+/// colouring (StarColorSymmetric) with direct recovery, or column colouring when that needs no
+/// more colours; one forward-over-reverse sweep per colour.
+std::vector<Expr> SparseHessian(const std::vector<Expr>& gradient, const std::vector<Expr>& inputs,
+                                Sparsity* pattern);
+
 /// Gradient of a scalar expression (one reverse sweep).
 std::vector<Expr> Gradient(const Expr& f, const std::vector<Expr>& inputs);
 

@@ -87,8 +87,19 @@ std::uint64_t Bits(double v) {
   return b;
 }
 
+std::shared_ptr<const Node> InternConstant(double v);
+
 std::shared_ptr<const Node> MakeConstant(double v) {
-  if (v == 0.0) v = 0.0;  // one zero: -0.0 and 0.0 fold to the same node
+  // 0 and 1 are by far the most frequent constants (Eigen zero-initialises, seeds are 0/1):
+  // keep them alive for good and skip the table lookup.
+  static const std::shared_ptr<const Node> zero = InternConstant(0.0);
+  static const std::shared_ptr<const Node> one = InternConstant(1.0);
+  if (v == 0.0) return zero;  // one zero: -0.0 and 0.0 fold to the same node
+  if (v == 1.0) return one;
+  return InternConstant(v);
+}
+
+std::shared_ptr<const Node> InternConstant(double v) {
   Node proto;
   proto.op = Op::kConstant;
   proto.value = v;

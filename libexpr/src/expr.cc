@@ -94,7 +94,10 @@ std::shared_ptr<const Node> MakeConstant(double v) {
   // keep them alive for good and skip the table lookup.
   static const std::shared_ptr<const Node> zero = InternConstant(0.0);
   static const std::shared_ptr<const Node> one = InternConstant(1.0);
-  if (v == 0.0) return zero;  // one zero: -0.0 and 0.0 fold to the same node
+  // -0.0 is a node of its own (the table is keyed by bits): folding keeps the sign of zero as
+  // IEEE arithmetic and the tape do (1/-(0) = -inf, atan2(-(0), -1) = -pi). Both zeros are zero
+  // for the simplifications, which compare values (IsZero).
+  if (v == 0.0 && !std::signbit(v)) return zero;
   if (v == 1.0) return one;
   return InternConstant(v);
 }

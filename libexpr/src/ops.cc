@@ -33,8 +33,6 @@ bool IsCommutative(Op op) {
   switch (op) {
     case Op::kAdd:
     case Op::kMul:
-    case Op::kMin:
-    case Op::kMax:
     case Op::kEq:
     case Op::kNe:
     case Op::kAnd:

@@ -75,7 +75,9 @@ constexpr int kNumOps = 0
 int Arity(Op op);
 /// Printed name of `op`, e.g. "sin" or "+".
 const char* OpName(Op op);
-/// True for operations whose arguments may be swapped (a+b, a*b, min, max, ==, !=, &&, ||).
+/// True for operations whose arguments may be swapped (a+b, a*b, ==, !=, &&, ||). min and max are
+/// not: their derivative at a tie goes to the first argument as written (see above), so min(a, b)
+/// and min(b, a) are different nodes.
 bool IsCommutative(Op op);
 
 /// Value of `op` applied to doubles `a` (of length Arity(op)). The single definition used by

@@ -1,0 +1,110 @@
+// Helpers shared by the models tests: seeded random chains and an explicit RK4 step.
+#pragma once
+
+#include <cstdint>
+#include <cstdlib>
+#include <iostream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "graybox/models/rigid_body_dynamics.h"
+#include "graybox/models/serial_chain.h"
+
+namespace graybox::models::testing {
+
+/// The seed of every random draw: GRAYBOX_TEST_SEED from the environment, else `fallback`. Printed
+/// so a failure can be replayed.
+inline std::uint32_t TestSeed(std::uint32_t fallback = 20240601u) {
+  std::uint32_t seed = fallback;
+  if (const char* env = std::getenv("GRAYBOX_TEST_SEED")) {
+    seed = static_cast<std::uint32_t>(std::strtoul(env, nullptr, 10));
+  }
+  std::cout << "[ seed     ] " << seed << " (override with GRAYBOX_TEST_SEED)\n";
+  return seed;
+}
+
+inline double Uniform(std::mt19937& rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(rng);
+}
+
+inline Eigen::VectorXd RandomVector(std::mt19937& rng, int n, double lo, double hi) {
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i) v[i] = Uniform(rng, lo, hi);
+  return v;
+}
+
+/// A random rotation (uniform enough for tests: normalised random quaternion).
+inline Eigen::Matrix3d RandomRotation(std::mt19937& rng) {
+  Eigen::Quaterniond q(Uniform(rng, -1, 1), Uniform(rng, -1, 1), Uniform(rng, -1, 1),
+                       Uniform(rng, -1, 1));
+  q.normalize();
+  return q.toRotationMatrix();
+}
+
+/// A random, physically consistent chain of `dof` links. `prismatic_every` > 0 makes every
+/// prismatic_every-th joint (1-based) prismatic. Inertias are given about the centre of mass.
+inline SerialChain RandomChain(std::mt19937& rng, int dof, DhConvention convention,
+                               int prismatic_every = 0) {
+  std::vector<Link> links(static_cast<std::size_t>(dof));
+  for (int i = 0; i < dof; ++i) {
+    Link& l = links[static_cast<std::size_t>(i)];
+    l.joint_type = (prismatic_every > 0 && (i + 1) % prismatic_every == 0) ? JointType::kPrismatic
+                                                                           : JointType::kRevolute;
+    l.alpha = Uniform(rng, -3.0, 3.0);
+    l.a = Uniform(rng, -0.5, 0.5);
+    l.d = Uniform(rng, -0.5, 0.5);
+    l.theta = Uniform(rng, -3.0, 3.0);
+    l.mass = Uniform(rng, 0.5, 5.0);
+    l.center_of_mass = RandomVector(rng, 3, -0.2, 0.2);
+    const Eigen::Matrix3d r = RandomRotation(rng);
+    const Eigen::Vector3d principal = RandomVector(rng, 3, 0.05, 0.1);  // triangle inequality holds
+    l.inertia = r * principal.asDiagonal() * r.transpose();
+    l.inertia = 0.5 * (l.inertia + l.inertia.transpose()).eval();
+    l.inertia_reference = InertiaReference::kCenterOfMass;
+    l.gear_ratio = Uniform(rng, 10.0, 100.0);
+    l.rotor_inertia = Uniform(rng, 0.0, 0.5);
+  }
+  const Eigen::Vector3d gravity = 9.81 * RandomVector(rng, 3, -1.0, 1.0).normalized();
+  return SerialChain("random", convention, std::move(links), gravity);
+}
+
+/// The same mechanism as a standard-DH chain, described with modified DH parameters and link-frame
+/// (origin) inertias: modified row i = (alpha_{i-1}, a_{i-1}, d_i, theta_i), and the modified link
+/// frame {i} is the standard chain's joint frame {J_i}, whose parameters SerialChain::body() holds.
+inline SerialChain ToModifiedDh(const SerialChain& standard) {
+  std::vector<Link> links = standard.links();
+  for (int i = 0; i < standard.dof(); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    Link& l = links[k];
+    l.alpha = i > 0 ? standard.link(i - 1).alpha : 0.0;
+    l.a = i > 0 ? standard.link(i - 1).a : 0.0;
+    const BodyParameters<double>& b = standard.body(i);
+    l.mass = b.mass;
+    l.center_of_mass = b.first_moment / b.mass;
+    l.inertia = b.inertia;
+    l.inertia_reference = InertiaReference::kLinkOrigin;
+  }
+  return SerialChain(standard.name() + " (modified)", DhConvention::kModified, std::move(links),
+                     standard.gravity());
+}
+
+/// One classical Runge-Kutta step of x' = f(x) for x = [q; qd] with qdd = accel(q, qd).
+template <typename Accel>
+void Rk4Step(const Accel& accel, double h, Eigen::VectorXd* q, Eigen::VectorXd* qd) {
+  const Eigen::VectorXd q0 = *q, v0 = *qd;
+  const Eigen::VectorXd a1 = accel(q0, v0);
+  const Eigen::VectorXd q2 = q0 + 0.5 * h * v0, v2 = v0 + 0.5 * h * a1;
+  const Eigen::VectorXd a2 = accel(q2, v2);
+  const Eigen::VectorXd q3 = q0 + 0.5 * h * v2, v3 = v0 + 0.5 * h * a2;
+  const Eigen::VectorXd a3 = accel(q3, v3);
+  const Eigen::VectorXd q4 = q0 + h * v3, v4 = v0 + h * a3;
+  const Eigen::VectorXd a4 = accel(q4, v4);
+  *q = q0 + (h / 6.0) * (v0 + 2.0 * v2 + 2.0 * v3 + v4);
+  *qd = v0 + (h / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+}
+
+}  // namespace graybox::models::testing

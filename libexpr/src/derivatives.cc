@@ -78,7 +78,9 @@ std::vector<std::vector<Expr>> ForwardDerivative(const std::vector<Expr>& output
       for (int a = 0; a < Arity(n->op); ++a) {
         const int ka = lin.Find(n->args[a].get());
         if (ka < 0 || tangent[ka].IsZero()) continue;
-        t = t + lin.partials[k][a] * tangent[ka];
+        const Expr& p = lin.partials[k][a];
+        t = p.IsOne() ? t + tangent[ka]
+                      : (p.IsConstant(-1.0) ? t - tangent[ka] : t + p * tangent[ka]);
       }
       tangent[k] = t;
     }
@@ -118,7 +120,10 @@ std::vector<std::vector<Expr>> ReverseDerivative(const std::vector<Expr>& output
       for (int a = 0; a < Arity(n->op); ++a) {
         const int ka = lin.Find(n->args[a].get());
         if (ka < 0) continue;
-        adjoint[ka] = adjoint[ka] + lin.partials[k][a] * adjoint[k];
+        const Expr& p = lin.partials[k][a];
+        adjoint[ka] = p.IsOne() ? adjoint[ka] + adjoint[k]
+                                : (p.IsConstant(-1.0) ? adjoint[ka] - adjoint[k]
+                                                      : adjoint[ka] + p * adjoint[k]);
       }
     }
     std::vector<Expr> out;

@@ -200,11 +200,15 @@ bool Simplify(Op op, const Expr* a, Expr* out) {
     case Op::kAdd:
       if (x.IsZero()) return *out = y, true;
       if (y.IsZero()) return *out = x, true;
+      // a + (-b) and (-a) + b are exactly a - b and b - a in IEEE arithmetic.
+      if (y.op() == Op::kNeg) return *out = x - y.Arg(0), true;
+      if (x.op() == Op::kNeg) return *out = y - x.Arg(0), true;
       return false;
     case Op::kSub:
       if (y.IsZero()) return *out = x, true;
       if (x.IsZero()) return *out = -y, true;
       if (x.IsSame(y)) return *out = Expr(0.0), true;
+      if (y.op() == Op::kNeg) return *out = x + y.Arg(0), true;  // a - (-b) = a + b exactly
       return false;
     case Op::kMul:
       if (x.IsZero() || y.IsZero()) return *out = Expr(0.0), true;

@@ -29,7 +29,8 @@ struct Function::Data {
   std::string name;
   std::vector<FunctionIo> inputs;
   std::vector<FunctionIo> outputs;
-  std::unique_ptr<Tape> tape;
+  std::unique_ptr<Tape> tape;        // one point at a time: runs of equal opcodes
+  std::unique_ptr<Tape> batch_tape;  // kLanes points at a time: fewest registers
 };
 
 namespace {
@@ -95,7 +96,10 @@ Function::Function(std::string name, std::vector<FunctionIo> inputs,
     }
   }
   auto data = std::make_shared<Data>();
-  data->tape = std::make_unique<Tape>(ExprLists(inputs), ExprLists(outputs));
+  data->tape = std::make_unique<Tape>(ExprLists(inputs), ExprLists(outputs),
+                                      Tape::Schedule::kGroupedByOpcode);
+  data->batch_tape =
+      std::make_unique<Tape>(ExprLists(inputs), ExprLists(outputs), Tape::Schedule::kDepthFirst);
   data->name = std::move(name);
   data->inputs = std::move(inputs);
   data->outputs = std::move(outputs);
@@ -175,9 +179,10 @@ Workspace Function::MakeWorkspace() const {
   const Tape& tape = *data_->tape;
   ws.owner_ = &tape;
   ws.registers_.assign(tape.num_registers(), 0.0);
-  ws.batch_registers_.assign(static_cast<std::size_t>(tape.num_registers()) * Tape::kLanes, 0.0);
-  for (const auto& [r, v] : tape.constants()) {
-    ws.registers_[r] = v;
+  for (const auto& [r, v] : tape.constants()) ws.registers_[r] = v;
+  const Tape& batch = *data_->batch_tape;
+  ws.batch_registers_.assign(static_cast<std::size_t>(batch.num_registers()) * Tape::kLanes, 0.0);
+  for (const auto& [r, v] : batch.constants()) {
     for (int l = 0; l < Tape::kLanes; ++l) ws.batch_registers_[r * Tape::kLanes + l] = v;
   }
   return ws;
@@ -292,8 +297,9 @@ EvalStatus Function::EvaluateBatch(const std::vector<Eigen::MatrixXd>& inputs,
   }
   constexpr int L = Tape::kLanes;
   double* r = ws->batch_registers_.data();
-  const auto& in_regs = tape.input_registers();
-  const auto& out_regs = tape.output_registers();
+  const Tape& batch = *data_->batch_tape;
+  const auto& in_regs = batch.input_registers();
+  const auto& out_regs = batch.output_registers();
   EvalStatus status;
   for (Eigen::Index p0 = 0; p0 < npoints; p0 += L) {
     const int lanes = static_cast<int>(std::min<Eigen::Index>(L, npoints - p0));
@@ -306,7 +312,7 @@ EvalStatus Function::EvaluateBatch(const std::vector<Eigen::MatrixXd>& inputs,
         }
       }
     }
-    tape.RunBatch(r);
+    batch.RunBatch(r);
     for (std::size_t j = 0; j < out_regs.size(); ++j) {
       Eigen::MatrixXd& y = (*outputs)[j];
       for (std::size_t k = 0; k < out_regs[j].size(); ++k) {

@@ -25,8 +25,71 @@ constexpr std::uint8_t Code_kMulSub = tape_code::kMulSub;
 constexpr std::uint8_t Code_kSubMul = tape_code::kSubMul;
 }  // namespace
 
+namespace {
+
+struct Pending {
+  std::uint8_t code;
+  const Node* result;
+  std::array<const Node*, 3> operands;
+  int arity;
+};
+
+// Reorders a topologically sorted instruction list into runs of equal opcodes: a ready list per
+// opcode; the opcode with the most ready instructions is drained (including instructions that
+// become ready meanwhile) before switching.
+std::vector<Pending> GroupByOpcode(const std::vector<Pending>& in) {
+  const std::size_t n = in.size();
+  std::unordered_map<const Node*, int> producer;
+  for (std::size_t k = 0; k < n; ++k) producer[in[k].result] = static_cast<int>(k);
+  std::vector<int> waiting(n, 0);
+  std::vector<std::vector<int>> users(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    for (int a = 0; a < in[k].arity; ++a) {
+      auto it = producer.find(in[k].operands[a]);
+      if (it == producer.end()) continue;
+      bool duplicate = false;
+      for (int b = 0; b < a; ++b) duplicate = duplicate || in[k].operands[b] == in[k].operands[a];
+      if (duplicate) continue;
+      ++waiting[k];
+      users[it->second].push_back(static_cast<int>(k));
+    }
+  }
+  std::vector<std::vector<int>> ready(tape_code::kCount);
+  std::size_t num_ready = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (waiting[k] == 0) {
+      ready[in[k].code].push_back(static_cast<int>(k));
+      ++num_ready;
+    }
+  }
+  std::vector<Pending> out;
+  out.reserve(n);
+  while (num_ready > 0) {
+    std::size_t code = 0;
+    for (std::size_t c = 1; c < ready.size(); ++c) {
+      if (ready[c].size() > ready[code].size()) code = c;
+    }
+    // Drain this opcode; its queue may grow while draining (FIFO keeps dependency order).
+    for (std::size_t head = 0; head < ready[code].size(); ++head) {
+      const int k = ready[code][head];
+      out.push_back(in[k]);
+      --num_ready;
+      for (int u : users[k]) {
+        if (--waiting[u] == 0) {
+          ready[in[u].code].push_back(u);
+          ++num_ready;
+        }
+      }
+    }
+    ready[code].clear();
+  }
+  return out;
+}
+
+}  // namespace
+
 Tape::Tape(const std::vector<std::vector<Expr>>& inputs,
-           const std::vector<std::vector<Expr>>& outputs) {
+           const std::vector<std::vector<Expr>>& outputs, Schedule schedule) {
   std::vector<Expr> roots;
   for (const auto& out : outputs) roots.insert(roots.end(), out.begin(), out.end());
   const std::vector<const Node*> order = internal::TopologicalOrder(internal::Roots(roots));
@@ -71,12 +134,6 @@ Tape::Tape(const std::vector<std::vector<Expr>>& inputs,
   };
 
   // Instructions as (code, result node, operand nodes); fused multiplications are not emitted.
-  struct Pending {
-    std::uint8_t code;
-    const Node* result;
-    std::array<const Node*, 3> operands;
-    int arity;
-  };
   std::vector<Pending> pending;
   std::unordered_set<const Node*> fused;
   pending.reserve(order.size());
@@ -107,6 +164,8 @@ Tape::Tape(const std::vector<std::vector<Expr>>& inputs,
   pending.erase(std::remove_if(pending.begin(), pending.end(),
                                [&](const Pending& p) { return fused.count(p.result) > 0; }),
                 pending.end());
+
+  if (schedule == Schedule::kGroupedByOpcode) pending = GroupByOpcode(pending);
 
   // Last use (instruction index) of every value; outputs live to the end.
   constexpr int kForever = std::numeric_limits<int>::max();
@@ -212,9 +271,13 @@ void Tape::Run(double* r) const {
           && label_kMulAdd,
       &&label_kMulSub, &&label_kSubMul, &&label_end};
   goto* kLabels[ip->code];
-#define GRAYBOX_TAPE_HANDLER(e, n, s)                                     \
-  label_##e : r[ip->out] = Apply<Code_##e>(r[ip->a], r[ip->b], r[ip->c]); \
-  ++ip;                                                                   \
+#define GRAYBOX_TAPE_HANDLER(e, n, s)                           \
+  label_##e : do {                                              \
+    r[ip->out] = Apply<Code_##e>(r[ip->a], r[ip->b], r[ip->c]); \
+    ++ip;                                                       \
+  }                                                             \
+  while (ip->code == Code_##e)                                  \
+    ;                                                           \
   goto* kLabels[ip->code];
   GRAYBOX_TAPE_CODES(GRAYBOX_TAPE_HANDLER)
 #undef GRAYBOX_TAPE_HANDLER

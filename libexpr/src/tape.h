@@ -6,7 +6,7 @@
 //
 // Registers [0, num_pinned) hold inputs and constants and are never reused; constants are written
 // once when a workspace is created. Registers from num_pinned on are work registers, reused as
-// soon as the value they hold is dead (linear-scan allocation over the topological order). An
+// soon as the value they hold is dead (linear-scan allocation over the schedule). An
 // instruction may write the register of one of its arguments: arguments are read first.
 #pragma once
 
@@ -45,7 +45,19 @@ class Tape {
     const Instruction* end() const { return first + count; }
     std::size_t size() const { return count; }
   };
-  Tape(const std::vector<std::vector<Expr>>& inputs, const std::vector<std::vector<Expr>>& outputs);
+  /// How instructions are ordered.
+  enum class Schedule {
+    /// Depth-first topological order: fewest live registers. Used for batches (whose registers
+    /// are kLanes wide) and for generated code.
+    kDepthFirst,
+    /// Ready-list order that emits runs of the same opcode: Run() executes a run with one
+    /// well-predicted loop instead of one indirect jump per instruction, which keeps long tapes
+    /// as fast per instruction as short ones. Uses more registers.
+    kGroupedByOpcode,
+  };
+
+  Tape(const std::vector<std::vector<Expr>>& inputs, const std::vector<std::vector<Expr>>& outputs,
+       Schedule schedule = Schedule::kDepthFirst);
 
   int num_registers() const { return num_registers_; }
   /// The instructions, in execution order.

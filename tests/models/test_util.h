@@ -92,17 +92,18 @@ inline SerialChain ToModifiedDh(const SerialChain& standard) {
                      standard.gravity());
 }
 
-/// One classical Runge-Kutta step of x' = f(x) for x = [q; qd] with qdd = accel(q, qd).
-template <typename Accel>
-void Rk4Step(const Accel& accel, double h, Eigen::VectorXd* q, Eigen::VectorXd* qd) {
-  const Eigen::VectorXd q0 = *q, v0 = *qd;
-  const Eigen::VectorXd a1 = accel(q0, v0);
-  const Eigen::VectorXd q2 = q0 + 0.5 * h * v0, v2 = v0 + 0.5 * h * a1;
-  const Eigen::VectorXd a2 = accel(q2, v2);
-  const Eigen::VectorXd q3 = q0 + 0.5 * h * v2, v3 = v0 + 0.5 * h * a2;
-  const Eigen::VectorXd a3 = accel(q3, v3);
-  const Eigen::VectorXd q4 = q0 + h * v3, v4 = v0 + h * a3;
-  const Eigen::VectorXd a4 = accel(q4, v4);
+/// One classical Runge-Kutta step of x' = f(x) for x = [q; qd] with qdd = accel(q, qd); `Vector`
+/// is Eigen::VectorXd or JointVector<double> (allocation-free).
+template <typename Vector, typename Accel>
+void Rk4Step(const Accel& accel, double h, Vector* q, Vector* qd) {
+  const Vector q0 = *q, v0 = *qd;
+  const Vector a1 = accel(q0, v0);
+  const Vector q2 = q0 + 0.5 * h * v0, v2 = v0 + 0.5 * h * a1;
+  const Vector a2 = accel(q2, v2);
+  const Vector q3 = q0 + 0.5 * h * v2, v3 = v0 + 0.5 * h * a2;
+  const Vector a3 = accel(q3, v3);
+  const Vector q4 = q0 + h * v3, v4 = v0 + h * a3;
+  const Vector a4 = accel(q4, v4);
   *q = q0 + (h / 6.0) * (v0 + 2.0 * v2 + 2.0 * v3 + v4);
   *qd = v0 + (h / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
 }

@@ -17,28 +17,25 @@
 // inertial parameters, and with an explicit BodyParameterArray<Scalar> (the parameters in the joint
 // frames, see serial_chain.h) so the inertial parameters can themselves be symbols to identify.
 //
-// ---- Equations of motion
-// -------------------------------------------------------------------------
+// ---- Equations of motion --------------------------------------------------------------------
 //   tau = M(q) qdd + C(q, qd) qd + g(q)
-//   tau      joint torques [N m] (revolute) / forces [N] (prismatic), acting on link i from link
-//   i-1 M(q)     joint-space mass matrix, symmetric positive definite, INCLUDING the reflected
-//   rotor
+//   tau      joint torques [N m] (revolute) / forces [N] (prismatic) on link i from link i-1
+//   M(q)     joint-space mass matrix, symmetric positive definite, INCLUDING the reflected rotor
 //            inertias on its diagonal (M = M_rigid + diag(I_a), SymPyBotics' "simplified" drive
 //            model, see serial_chain.h)
 //   C qd     Coriolis and centrifugal torques (quadratic in qd)
 //   g(q)     gravity torques; g = dU/dq with U the potential energy
 // Units: q in rad or m, qd in rad/s or m/s, qdd in rad/s^2 or m/s^2.
 //
-// ---- Algorithms
-// ----------------------------------------------------------------------------------
+// ---- Algorithms -----------------------------------------------------------------------------
 // InverseDynamics: recursive Newton-Euler (Luh, Walker, Paul 1980) in the joint frames {J_i}
 // (z = joint axis). Outward pass, with a_0 = -gravity, w_0 = dw_0 = 0, R_i and p_i the rotation
 // and origin of {J_i} in {J_{i-1}}, z = (0, 0, 1):
 //     a'_i  = R_i^T (a_{i-1} + dw_{i-1} x p_i + w_{i-1} x (w_{i-1} x p_i))
-//     revolute:   w_i = R_i^T w_{i-1} + z qd_i,   dw_i = R_i^T dw_{i-1} + (R_i^T w_{i-1}) x z qd_i
-//                 + z qdd_i,   a_i = a'_i
-//     prismatic:  w_i = R_i^T w_{i-1},  dw_i = R_i^T dw_{i-1},  a_i = a'_i + 2 w_i x z qd_i + z
-//     qdd_i
+//     revolute:   w_i = R_i^T w_{i-1} + z qd_i,  a_i = a'_i,
+//                 dw_i = R_i^T dw_{i-1} + (R_i^T w_{i-1}) x z qd_i + z qdd_i
+//     prismatic:  w_i = R_i^T w_{i-1},  dw_i = R_i^T dw_{i-1},
+//                 a_i = a'_i + 2 w_i x z qd_i + z qdd_i
 // Inward pass with the body parameters (m, h = m c, I_O) about the origin of {J_i}:
 //     f_i = m a_i + dw_i x h + w_i x (w_i x h)              (net force on link i)
 //     n_i = I_O dw_i + w_i x (I_O w_i) + h x a_i             (net moment about the origin)
@@ -271,7 +268,7 @@ void AddBody(const BodyParameters<Scalar>& b, BodyParameters<Scalar>* sum) {
 
 }  // namespace internal
 
-// ---- Kinematics ------------------------------------------------------------------------------
+// ---- Kinematics -----------------------------------------------------------------------------
 
 /// T^0_i of every DH link frame {i} (see serial_chain.h for the conventions).
 template <typename Scalar>
@@ -298,7 +295,7 @@ LinkTransforms<Scalar> ForwardKinematics(const SerialChain& chain, const JointVe
   return out;
 }
 
-// ---- Dynamics with explicit body parameters ----------------------------------------------------
+// ---- Dynamics with explicit body parameters -------------------------------------------------
 
 /// tau = M(q) qdd + C(q, qd) qd + g(q) (recursive Newton-Euler, rotor inertia included).
 template <typename Scalar>
@@ -384,8 +381,7 @@ JointMatrix<Scalar> MassMatrix(const SerialChain& chain, const BodyParameterArra
   return m;
 }
 
-// ---- Symmetric positive definite solves
-// ----------------------------------------------------------
+// ---- Symmetric positive definite solves -----------------------------------------------------
 
 /// Solves A x = b for symmetric positive definite A by an unpivoted LDL^T factorisation (only the
 /// lower triangle of A is read). Generic version, used for double; allocation-free.
@@ -469,7 +465,7 @@ Scalar PotentialEnergy(const SerialChain& chain, const BodyParameterArray<Scalar
   return u;
 }
 
-// ---- Dynamics with the chain's own parameters ------------------------------------------------
+// ---- Dynamics with the chain's own parameters -----------------------------------------------
 
 template <typename Scalar>
 JointVector<Scalar> InverseDynamics(const SerialChain& chain, const JointVector<Scalar>& q,

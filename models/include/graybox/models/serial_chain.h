@@ -2,22 +2,20 @@
 // rigid links, each driven by one revolute or prismatic joint), from which rigid_body_dynamics.h
 // evaluates kinematics and dynamics on any scalar type.
 //
-// ---- Geometry: Denavit-Hartenberg parameters
-// ----------------------------------------------------- Each Link carries one row (alpha, a, d,
-// theta) of a DH table and a joint type. The joint variable q_i is ADDED to theta (revolute joint,
-// q in rad) or to d (prismatic joint, q in m), so the constant `theta` (or `d`) of a moving joint
-// is its joint offset:
-//   revolute:   theta_i = q_i + theta,  d_i = d           prismatic:  theta_i = theta,  d_i = q_i +
-//   d
+// ---- Geometry: Denavit-Hartenberg parameters ------------------------------------------------
+// Each Link carries one row (alpha, a, d, theta) of a DH table and a joint type. The joint variable
+// q_i is ADDED to theta (revolute joint, q in rad) or to d (prismatic joint, q in m), so the
+// constant `theta` (or `d`) of a moving joint is its joint offset:
+//   revolute:   theta_i = q_i + theta,  d_i = d
+//   prismatic:  theta_i = theta,        d_i = q_i + d
 // Two conventions are supported (both as in Corke's Robotics Toolbox and SymPyBotics):
 //
 //   kStandard (Denavit-Hartenberg 1955, Spong/Siciliano): frame {i} is attached to the DISTAL end
 //     of link i and joint i moves about/along z_{i-1}:
 //        T^{i-1}_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
 //   kModified (Craig 1986, "proximal"): frame {i} sits ON joint i and joint i moves about/along
-//   z_i;
-//     row i holds (alpha_{i-1}, a_{i-1}, d_i, theta_i), i.e. the twist and length of the PREVIOUS
-//     link:
+//     z_i; row i holds (alpha_{i-1}, a_{i-1}, d_i, theta_i), i.e. the twist and length of the
+//     PREVIOUS link:
 //        T^{i-1}_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i).
 // Frame {0} is the base frame; all link frames are right-handed. Units: alpha, theta in rad;
 // a, d in m. ForwardKinematics returns T^0_i for every link frame {i} of the chosen convention.
@@ -26,12 +24,12 @@
 // zeros a symbolic derivation would give (this keeps symbolic graphs small; the change is below
 // one ulp of the result).
 //
-// ---- Inertia -----------------------------------------------------------------------------------
+// ---- Inertia --------------------------------------------------------------------------------
 // Link i's inertial parameters are given IN ITS LINK FRAME {i} (of the chosen convention):
 //   mass            m_i [kg], >= 0
 //   center_of_mass  c_i [m], the centre of mass in {i} coordinates
-//   inertia         a symmetric 3x3 tensor [kg m^2] in {i} axes, taken about the point named by
-//   inertia_reference:
+//   inertia         a symmetric 3x3 tensor [kg m^2] in {i} axes, about the point named by
+//   inertia_reference
 //     kCenterOfMass  I_c, the tensor about the centre of mass (what CAD tools, URDF and Pinocchio
 //                    report). Physically consistent when I_c is positive semi-definite and its
 //                    principal moments satisfy the triangle inequality.
@@ -41,7 +39,7 @@
 // Products of inertia are the tensor entries (I_xy = -sum m x y), not the "positive" products
 // some tables list; the tensor must be symmetric.
 //
-// ---- Drives ------------------------------------------------------------------------------------
+// ---- Drives ---------------------------------------------------------------------------------
 //   rotor_inertia  I_a,i = J_m,i * u_i^2 >= 0: the motor rotor (and gear input) inertia J_m
 //                  reflected through the gear ratio u_i to the joint side [kg m^2; kg for a
 //                  prismatic joint]. It is modelled with the "simplified" drive model of
@@ -53,12 +51,12 @@
 //                  rigid-body recursions; actuator models use it to map motor torque to joint
 //                  torque, tau_joint = u_i * tau_motor (see kuka_kr300.h).
 //
-// ---- Gravity -----------------------------------------------------------------------------------
+// ---- Gravity --------------------------------------------------------------------------------
 // `gravity` is the gravitational acceleration vector in base-frame coordinates [m/s^2], e.g.
 // (0, 0, -9.81) for a floor-mounted robot whose base z axis points up. The recursions implement it
 // as a fictitious base acceleration a_0 = -gravity.
 //
-// ---- Validity ----------------------------------------------------------------------------------
+// ---- Validity -------------------------------------------------------------------------------
 // The constructor calls Validate(), which throws std::invalid_argument with a message of the form
 // "SerialChain 'name': link 3: expected a mass >= 0 kg, got -1; hint: ..." when: the number of
 // links is not in [1, kMaxDof]; any number is not finite; a mass or rotor inertia is negative; an
@@ -67,7 +65,7 @@
 // published parameter sets (e.g. the KUKA table of kuka_kr300.h read as origin inertias) violate it
 // - but PhysicalConsistencyReport() reports it.
 //
-// ---- Precomputed form --------------------------------------------------------------------------
+// ---- Precomputed form -----------------------------------------------------------------------
 // For the recursions every link is re-expressed in its JOINT FRAME {J_i}: the frame whose z axis is
 // the axis of joint i and that moves with link i. For the modified convention {J_i} = {i}; for the
 // standard convention {J_i} = {i-1} * Rz(theta_i) Tz(d_i), i.e. {i} = {J_i} * Tx(a_i) Rx(alpha_i).

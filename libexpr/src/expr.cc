@@ -375,6 +375,12 @@ Expr operator*(const Expr& a, const Expr& b) { return MakeOp(Op::kMul, a, b); }
 Expr operator/(const Expr& a, const Expr& b) { return MakeOp(Op::kDiv, a, b); }
 Expr operator-(const Expr& a) { return MakeOp(Op::kNeg, a); }
 
+bool operator==(const Expr& a, const Expr& b) {
+  if (a.IsConstant() && b.IsConstant()) return a.Value() == b.Value();
+  return a.IsSame(b);
+}
+bool operator!=(const Expr& a, const Expr& b) { return !(a == b); }
+
 Expr pow(const Expr& x, const Expr& y) { return MakeOp(Op::kPow, x, y); }
 Expr sqrt(const Expr& x) { return MakeOp(Op::kSqrt, x); }
 Expr exp(const Expr& x) { return MakeOp(Op::kExp, x); }

@@ -7,6 +7,7 @@
 #include <limits>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "graybox/expr.h"
@@ -112,6 +113,23 @@ TEST(ExprBasics, ConstantsAndAccessors) {
   acc -= x;
   acc /= 4.0;
   EXPECT_TRUE(acc.IsSame(((x + 1.0) * 2.0 - x) / 4.0));
+}
+
+TEST(ExprBasics, EqualityIsKnownEqualityNotAComparisonNode) {
+  static_assert(std::is_same_v<decltype(Expr() == Expr()), bool>);
+  const Expr x = Expr::Symbol("x"), y = Expr::Symbol("y");
+  EXPECT_TRUE(x == x);
+  EXPECT_TRUE((x + y) == (y + x));  // one node
+  EXPECT_TRUE((x + 0.0) == x);
+  EXPECT_FALSE(x == y);  // not known equal
+  EXPECT_TRUE(x != y);
+  EXPECT_FALSE(x * 2.0 == x + x);  // equal values, different graphs
+  // Constants compare as doubles.
+  EXPECT_TRUE(Expr(2.0) == 2.0);
+  EXPECT_TRUE(Expr(-0.0) == Expr(0.0));
+  EXPECT_FALSE(Expr(kNaN) == Expr(kNaN));
+  EXPECT_TRUE(Expr(kNaN) != Expr(kNaN));
+  EXPECT_FALSE(Expr(1.0) == x);
 }
 
 // ---- constant folding -----------------------------------------------------------------------

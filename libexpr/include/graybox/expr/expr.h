@@ -98,6 +98,13 @@ Expr operator/(const Expr& a, const Expr& b);
 Expr operator-(const Expr& a);
 inline Expr operator+(const Expr& a) { return a; }
 
+/// Known equality, for generic code and for Eigen, whose matrix products need `Scalar == Scalar`
+/// (e.g. `imag(alpha) == RealScalar(0)`): true when `a` and `b` are the same node, or constants of
+/// equal value (as doubles: -0 == 0, NaN != NaN). Distinct symbols compare unequal even though
+/// their values may coincide. It does not build a comparison node; eq(a, b) does.
+bool operator==(const Expr& a, const Expr& b);
+bool operator!=(const Expr& a, const Expr& b);
+
 // Elementary functions (found by argument-dependent lookup, so Eigen and generic code use them).
 Expr pow(const Expr& x, const Expr& y);
 Expr sqrt(const Expr& x);

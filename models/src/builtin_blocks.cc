@@ -1,0 +1,12 @@
+#include "builtin_blocks.h"
+
+namespace graybox::models::internal {
+
+void RegisterBuiltinBlocks(BlockRegistry& registry) {
+  RegisterFrictionBlocks(registry);
+  RegisterDriveBlocks(registry);
+  RegisterPneumaticBlocks(registry);
+  RegisterNetworkBlocks(registry);
+}
+
+}  // namespace graybox::models::internal

@@ -1,0 +1,16 @@
+// Private: registration of the built-in block families into the global registry.
+#pragma once
+
+#include "graybox/models/block.h"
+
+namespace graybox::models::internal {
+
+/// Called once by BlockRegistry::Global(); calls every family's function below.
+void RegisterBuiltinBlocks(BlockRegistry& registry);
+
+void RegisterFrictionBlocks(BlockRegistry& registry);   // src/friction_blocks.cc
+void RegisterDriveBlocks(BlockRegistry& registry);      // src/drive_blocks.cc
+void RegisterPneumaticBlocks(BlockRegistry& registry);  // src/pneumatic_blocks.cc
+void RegisterNetworkBlocks(BlockRegistry& registry);    // src/network_blocks.cc
+
+}  // namespace graybox::models::internal

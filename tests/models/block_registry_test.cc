@@ -1,0 +1,180 @@
+// The shared suite over every registered block: metadata complete and consistent, evaluation on
+// doubles equal to evaluation through libexpr, derivatives (outputs and state derivatives with
+// respect to states, inputs and parameters) equal to central finite differences. A new block is
+// covered by registering it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "graybox/expr/derivative_check.h"
+#include "graybox/expr/function.h"
+#include "graybox/models/block.h"
+#include "test_util.h"
+
+namespace graybox::models {
+namespace {
+
+using expr::Expr;
+using expr::Function;
+
+// Same scalar code on doubles and through the tape: differences are rounding only, and the tape
+// may fuse or reorder nothing that changes IEEE results, so agreement is to a few ulps.
+constexpr double kDoubleVersusExprTolerance = 1e-12;
+// Central differences at the default step: ~1e-10 relative for smooth blocks, so 1e-6 leaves a
+// wide margin while catching any wrong partial.
+constexpr double kFiniteDifferenceTolerance = 1e-6;
+constexpr int kPointsPerBlock = 3;
+
+class RegisteredBlock : public ::testing::TestWithParam<std::string> {
+ protected:
+  std::unique_ptr<Block> Make() const {
+    const auto& registry = BlockRegistry::Global();
+    return registry.Create(GetParam(), registry.TestOptions(GetParam()));
+  }
+};
+
+struct Point {
+  Eigen::VectorXd x, u, p;
+};
+
+Point RandomPoint(const Block& b, std::mt19937& rng) {
+  Point pt;
+  auto sample = [&](const std::vector<SignalInfo>& signals) {
+    Eigen::VectorXd v(static_cast<int>(signals.size()));
+    for (std::size_t i = 0; i < signals.size(); ++i) {
+      v[static_cast<int>(i)] =
+          testing::Uniform(rng, signals[i].typical_min, signals[i].typical_max);
+    }
+    return v;
+  };
+  pt.x = sample(b.info().states);
+  pt.u = sample(b.info().inputs);
+  pt.p.resize(b.NumParameters());
+  for (int i = 0; i < b.NumParameters(); ++i) {
+    const ParameterInfo& par = b.info().parameters[i];
+    double v = par.nominal * (1.0 + 0.1 * testing::Uniform(rng, -1.0, 1.0));
+    if (par.nominal == 0.0) v = 0.1 * testing::Uniform(rng, -1.0, 1.0);
+    pt.p[i] = std::min(par.upper, std::max(par.lower, v));
+  }
+  return pt;
+}
+
+// The block as a Function of (x, u, p) with outputs "xdot" and "y".
+Function AsFunction(const Block& b) {
+  const std::vector<Expr> x = Expr::Symbols("x", b.NumStates());
+  const std::vector<Expr> u = Expr::Symbols("u", b.NumInputs());
+  const std::vector<Expr> p = Expr::Symbols("p", b.NumParameters());
+  std::vector<Expr> xdot(b.NumStates()), y(b.NumOutputs());
+  BlockArgs<Expr> args{x.data(), u.data(), p.data(), xdot.data(), y.data()};
+  b.Evaluate(args);
+  return Function(b.info().type, {{"x", x}, {"u", u}, {"p", p}}, {{"xdot", xdot}, {"y", y}});
+}
+
+TEST_P(RegisteredBlock, MetadataIsCompleteAndConsistent) {
+  const auto block = Make();
+  const BlockInfo& info = block->info();
+  EXPECT_EQ(info.type, GetParam());
+  EXPECT_FALSE(info.description.empty());
+  EXPECT_FALSE(info.reference.empty());
+  EXPECT_GT(block->NumOutputs() + block->NumStates(), 0);
+  auto check_signals = [&](const std::vector<SignalInfo>& signals, const char* kind) {
+    std::set<std::string> names;
+    for (const SignalInfo& s : signals) {
+      EXPECT_FALSE(s.name.empty()) << kind;
+      EXPECT_TRUE(names.insert(s.name).second) << kind << " '" << s.name << "' repeated";
+      EXPECT_FALSE(s.unit.empty()) << kind << " '" << s.name << "' has no unit";
+      EXPECT_FALSE(s.description.empty()) << kind << " '" << s.name << "' has no description";
+      EXPECT_LT(s.typical_min, s.typical_max) << kind << " '" << s.name << "'";
+    }
+  };
+  check_signals(info.inputs, "input");
+  check_signals(info.outputs, "output");
+  check_signals(info.states, "state");
+  std::set<std::string> names;
+  for (const ParameterInfo& par : info.parameters) {
+    EXPECT_TRUE(names.insert(par.name).second) << "parameter '" << par.name << "' repeated";
+    EXPECT_FALSE(par.unit.empty()) << "parameter '" << par.name << "' has no unit";
+    EXPECT_FALSE(par.description.empty()) << "parameter '" << par.name << "'";
+    EXPECT_LE(par.lower, par.nominal) << "parameter '" << par.name << "'";
+    EXPECT_LE(par.nominal, par.upper) << "parameter '" << par.name << "'";
+    if (par.HasNeutral()) {
+      EXPECT_LE(par.lower, par.neutral) << "parameter '" << par.name << "'";
+      EXPECT_LE(par.neutral, par.upper) << "parameter '" << par.name << "'";
+    }
+  }
+}
+
+TEST_P(RegisteredBlock, DoublesEqualExpressions) {
+  const auto block = Make();
+  const Function f = AsFunction(*block);
+  std::mt19937 rng(testing::TestSeed());
+  for (int k = 0; k < kPointsPerBlock; ++k) {
+    const Point pt = RandomPoint(*block, rng);
+    Eigen::VectorXd xdot(block->NumStates()), y(block->NumOutputs());
+    block->Evaluate(
+        BlockArgs<double>{pt.x.data(), pt.u.data(), pt.p.data(), xdot.data(), y.data()});
+    const auto ref = f({pt.x, pt.u, pt.p});
+    for (int i = 0; i < xdot.size(); ++i) {
+      EXPECT_NEAR(xdot[i], ref[0][i], kDoubleVersusExprTolerance * (1.0 + std::fabs(ref[0][i])))
+          << "xdot '" << block->info().states[i].name << "'";
+    }
+    for (int i = 0; i < y.size(); ++i) {
+      EXPECT_NEAR(y[i], ref[1][i], kDoubleVersusExprTolerance * (1.0 + std::fabs(ref[1][i])))
+          << "y '" << block->info().outputs[i].name << "'";
+    }
+  }
+}
+
+TEST_P(RegisteredBlock, DerivativesMatchFiniteDifferences) {
+  const auto block = Make();
+  const Function f = AsFunction(*block);
+  std::mt19937 rng(testing::TestSeed());
+  expr::DerivativeCheckOptions options;
+  options.tolerance = kFiniteDifferenceTolerance;
+  for (int k = 0; k < kPointsPerBlock; ++k) {
+    const Point pt = RandomPoint(*block, rng);
+    for (const char* out : {"xdot", "y"}) {
+      for (const char* in : {"x", "u", "p"}) {
+        if (f.OutputSize(f.OutputIndex(out)) == 0 || f.InputSize(f.InputIndex(in)) == 0) continue;
+        const auto check = expr::CheckJacobian(f, out, in, {pt.x, pt.u, pt.p}, options);
+        EXPECT_TRUE(check.ok) << check.FullReport();
+      }
+    }
+  }
+}
+
+std::vector<std::string> RegisteredTypes() { return BlockRegistry::Global().Types(); }
+
+INSTANTIATE_TEST_SUITE_P(AllBlocks, RegisteredBlock, ::testing::ValuesIn(RegisteredTypes()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           std::string name = info.param;
+                           for (char& c : name) {
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           }
+                           return name;
+                         });
+GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(RegisteredBlock);
+
+TEST(BlockRegistry, UnknownTypeSuggestsTheClosest) {
+  const auto types = BlockRegistry::Global().Types();
+  if (types.empty()) GTEST_SKIP() << "no block registered yet";
+  std::string typo = types.front();
+  typo.back() = typo.back() == 'x' ? 'y' : 'x';
+  try {
+    BlockRegistry::Global().Create(typo);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean '" + types.front() + "'"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(BlockRegistry, DidYouMeanPicksTheClosestWord) {
+  EXPECT_EQ(DidYouMean("stribek", {"stribeck", "coulomb", "viscous"}), "stribeck");
+  EXPECT_EQ(DidYouMean("zzzzzz", {"stribeck", "coulomb"}), "");
+}
+
+}  // namespace
+}  // namespace graybox::models

@@ -1,0 +1,158 @@
+// Model: blocks connected through named signals, built into the state-space model the estimators
+// consume,
+//     xdot = f(x, u, p),    y = h(x, u, p),
+// with named states, inputs, outputs and parameters.
+//
+// Signals. A signal is a named scalar. Its value is the sum of everything that contributes to it:
+// an external input of the same name (measured data driving the model), and the outputs of blocks
+// connected to it (a connection written "-name" subtracts). Every block state is also a signal,
+// named "<instance>.<state>", so a friction block reads the velocity state of the arm it brakes.
+// Blocks read signals through their inputs; a block is evaluated after every block that contributes
+// to a signal it reads. A cycle of such dependencies without a state in between is an algebraic
+// loop and is rejected.
+//
+//   Model m("drive");
+//   m.AddInput("u", "N m", "motor torque");
+//   m.AddBlock("load", "mechanics.inertia", {}, {"torque"}, {});   // state load.omega
+//   ... connect "u" into "torque", a friction block reading "load.omega" and writing "-torque"
+//   m.AddOutput("load.omega");
+//   StateSpaceModel ss = m.Build();
+//
+// Parameters are addressed as "<instance>.<parameter>" (the problem files use the same names);
+// each starts at its block's nominal value, may be fixed or freed, re-bounded and re-scaled.
+//
+// Augmentation. Augment() adds a block exactly like AddBlock() but starts every parameter that has
+// a neutral value at it, so the augmented model's outputs equal the original ones until the
+// parameters move (blocks whose effect vanishes at neutral: friction terms, residual networks with
+// zero output weights). InsertOnSignal() puts a single-input single-output block in series on a
+// signal (an input delay on a motor torque, a dead zone): every reader of the signal then reads the
+// block's output instead. Both are what the sim-to-real gap diagnosis does for every candidate
+// effect.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "graybox/expr/function.h"
+#include "graybox/models/block.h"
+
+namespace graybox::models {
+
+/// A parameter of a model: the block's metadata, its qualified name and its current setting.
+struct ModelParameter {
+  std::string name;  // "<instance>.<parameter>"
+  ParameterInfo info;
+  double value = 0.0;
+  bool free = true;
+  /// Typical magnitude for optimizer scaling (defaults to max(|nominal|, 1e-3 * something > 0)).
+  double scale = 1.0;
+  /// Current bounds (start as the block's; may be narrowed).
+  double lower = 0.0;
+  double upper = 0.0;
+};
+
+/// The built model: symbolic Functions plus metadata. Immutable; cheap to copy.
+struct StateSpaceModel {
+  std::string name;
+  std::vector<SignalInfo> states;   // qualified names "<instance>.<state>"
+  std::vector<SignalInfo> inputs;   // external inputs
+  std::vector<SignalInfo> outputs;  // the declared output signals
+  std::vector<ModelParameter> parameters;
+  /// True when any block is stiff (integrate with an implicit method).
+  bool stiff = false;
+  /// Inputs "x", "u", "p"; output "xdot".
+  expr::Function dynamics;
+  /// Inputs "x", "u", "p"; output "y".
+  expr::Function output;
+
+  int NumStates() const { return static_cast<int>(states.size()); }
+  int NumInputs() const { return static_cast<int>(inputs.size()); }
+  int NumOutputs() const { return static_cast<int>(outputs.size()); }
+  int NumParameters() const { return static_cast<int>(parameters.size()); }
+  /// Current parameter values in order.
+  Eigen::VectorXd ParameterValues() const;
+  /// Index of a parameter, state, input or output by name; std::invalid_argument with a
+  /// did-you-mean suggestion otherwise.
+  int ParameterIndex(const std::string& name) const;
+  int StateIndex(const std::string& name) const;
+  int InputIndex(const std::string& name) const;
+  int OutputIndex(const std::string& name) const;
+};
+
+class Model {
+ public:
+  explicit Model(std::string name);
+
+  const std::string& name() const { return name_; }
+
+  /// Declares an external input signal (driven by data).
+  void AddInput(const std::string& signal, const std::string& unit,
+                const std::string& description = "", double typical_min = -1.0,
+                double typical_max = 1.0);
+
+  /// Adds a block instance. inputs[i] names the signal feeding block input i; outputs[i] names
+  /// the signal block output i adds to ("-name" subtracts; "" leaves the output unconnected).
+  /// Throws std::invalid_argument for a repeated instance name, wrong connection counts, or a
+  /// name containing '.'.
+  void AddBlock(const std::string& instance, std::shared_ptr<const Block> block,
+                const std::vector<std::string>& inputs, const std::vector<std::string>& outputs);
+  /// The same with a block created from the global registry.
+  void AddBlock(const std::string& instance, const std::string& type, const BlockOptions& options,
+                const std::vector<std::string>& inputs, const std::vector<std::string>& outputs);
+
+  /// AddBlock, then every parameter of the new instance that has a neutral value is set to it.
+  void Augment(const std::string& instance, std::shared_ptr<const Block> block,
+               const std::vector<std::string>& inputs, const std::vector<std::string>& outputs);
+  void Augment(const std::string& instance, const std::string& type, const BlockOptions& options,
+               const std::vector<std::string>& inputs, const std::vector<std::string>& outputs);
+
+  /// Puts a one-input one-output block in series on `signal`: the block reads `signal`, its
+  /// output is the new signal "<instance>.out", and every block input and model output that read
+  /// `signal` reads "<instance>.out" instead. Parameters start at their neutral values.
+  void InsertOnSignal(const std::string& signal, const std::string& instance,
+                      std::shared_ptr<const Block> block);
+  void InsertOnSignal(const std::string& signal, const std::string& instance,
+                      const std::string& type, const BlockOptions& options = {});
+
+  /// Declares an output (a measured channel) as a signal name.
+  void AddOutput(const std::string& signal);
+
+  /// Parameter access by qualified name (did-you-mean on unknown names).
+  ModelParameter& Parameter(const std::string& name);
+  const std::vector<ModelParameter>& parameters() const { return parameters_; }
+  void SetParameter(const std::string& name, double value);
+  void Fix(const std::string& name);
+  void Free(const std::string& name);
+
+  /// Names of every signal known so far (inputs, states, block outputs).
+  std::vector<std::string> Signals() const;
+
+  /// Builds the symbolic state-space model. Throws std::invalid_argument for a signal that is
+  /// read but never produced (with a suggestion), an algebraic loop (listing the blocks), or no
+  /// states and no outputs.
+  StateSpaceModel Build() const;
+
+ private:
+  struct Instance {
+    std::string name;
+    std::shared_ptr<const Block> block;
+    std::vector<std::string> inputs;
+    std::vector<std::string> outputs;
+  };
+  struct Input {
+    SignalInfo info;
+  };
+  const Instance* FindInstance(const std::string& name) const;
+
+  std::string name_;
+  std::vector<Input> inputs_;
+  std::vector<Instance> instances_;
+  std::vector<std::string> outputs_;
+  std::vector<ModelParameter> parameters_;
+};
+
+/// Default optimizer scale of a parameter: |nominal|, or the width of finite bounds, or 1.
+double DefaultParameterScale(const ParameterInfo& info);
+
+}  // namespace graybox::models

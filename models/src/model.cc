@@ -1,0 +1,371 @@
+#include "graybox/models/model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+namespace graybox::models {
+
+using expr::Expr;
+
+namespace {
+
+std::string Names(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s.empty() ? "(none)" : s;
+}
+
+std::string Suggest(const std::string& name, const std::vector<std::string>& known) {
+  const std::string hint = DidYouMean(name, known);
+  return hint.empty() ? "" : "; did you mean '" + hint + "'?";
+}
+
+// "-name" -> ("name", -1); "name" -> ("name", +1).
+std::pair<std::string, double> Connection(const std::string& c) {
+  if (!c.empty() && c[0] == '-') return {c.substr(1), -1.0};
+  return {c, 1.0};
+}
+
+template <typename T, typename Key>
+int IndexByName(const std::vector<T>& items, const std::string& name, Key key, const char* kind,
+                const std::string& model) {
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    if (key(items[i]) == name) return static_cast<int>(i);
+    names.push_back(key(items[i]));
+  }
+  throw std::invalid_argument("model '" + model + "': unknown " + kind + " '" + name + "'" +
+                              Suggest(name, names));
+}
+
+}  // namespace
+
+double DefaultParameterScale(const ParameterInfo& info) {
+  if (info.nominal != 0.0) return std::fabs(info.nominal);
+  if (std::isfinite(info.lower) && std::isfinite(info.upper) && info.upper > info.lower) {
+    return info.upper - info.lower;
+  }
+  return 1.0;
+}
+
+Eigen::VectorXd StateSpaceModel::ParameterValues() const {
+  Eigen::VectorXd p(NumParameters());
+  for (int i = 0; i < NumParameters(); ++i) p[i] = parameters[i].value;
+  return p;
+}
+
+int StateSpaceModel::ParameterIndex(const std::string& n) const {
+  return IndexByName(
+      parameters, n, [](const ModelParameter& p) { return p.name; }, "parameter", name);
+}
+int StateSpaceModel::StateIndex(const std::string& n) const {
+  return IndexByName(
+      states, n, [](const SignalInfo& s) { return s.name; }, "state", name);
+}
+int StateSpaceModel::InputIndex(const std::string& n) const {
+  return IndexByName(
+      inputs, n, [](const SignalInfo& s) { return s.name; }, "input", name);
+}
+int StateSpaceModel::OutputIndex(const std::string& n) const {
+  return IndexByName(
+      outputs, n, [](const SignalInfo& s) { return s.name; }, "output", name);
+}
+
+Model::Model(std::string name) : name_(std::move(name)) {}
+
+void Model::AddInput(const std::string& signal, const std::string& unit,
+                     const std::string& description, double typical_min, double typical_max) {
+  if (signal.empty() || signal.find('.') != std::string::npos || signal[0] == '-') {
+    throw std::invalid_argument("model '" + name_ +
+                                "': expected an input name without '.' or leading '-', got '" +
+                                signal + "'");
+  }
+  for (const auto& in : inputs_) {
+    if (in.info.name == signal) {
+      throw std::invalid_argument("model '" + name_ + "': input '" + signal + "' declared twice");
+    }
+  }
+  inputs_.push_back({SignalInfo{signal, unit, description, typical_min, typical_max}});
+}
+
+const Model::Instance* Model::FindInstance(const std::string& n) const {
+  for (const auto& inst : instances_) {
+    if (inst.name == n) return &inst;
+  }
+  return nullptr;
+}
+
+void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> block,
+                     const std::vector<std::string>& inputs,
+                     const std::vector<std::string>& outputs) {
+  if (!block) {
+    throw std::invalid_argument("model '" + name_ + "': block '" + instance + "' is null");
+  }
+  if (instance.empty() || instance.find('.') != std::string::npos) {
+    throw std::invalid_argument("model '" + name_ +
+                                "': expected a block instance name without '.', got '" + instance +
+                                "'");
+  }
+  if (FindInstance(instance)) {
+    throw std::invalid_argument("model '" + name_ + "': block instance '" + instance +
+                                "' added twice");
+  }
+  const BlockInfo& info = block->info();
+  if (static_cast<int>(inputs.size()) != block->NumInputs()) {
+    throw std::invalid_argument("model '" + name_ + "': block '" + instance + "' (" + info.type +
+                                "): expected " + std::to_string(block->NumInputs()) +
+                                " input connections, got " + std::to_string(inputs.size()));
+  }
+  if (static_cast<int>(outputs.size()) != block->NumOutputs()) {
+    throw std::invalid_argument("model '" + name_ + "': block '" + instance + "' (" + info.type +
+                                "): expected " + std::to_string(block->NumOutputs()) +
+                                " output connections, got " + std::to_string(outputs.size()));
+  }
+  for (const auto& out : outputs) {
+    const std::string target = Connection(out).first;
+    for (const auto& inst : instances_) {
+      for (const auto& s : inst.block->info().states) {
+        if (target == inst.name + "." + s.name) {
+          throw std::invalid_argument("model '" + name_ + "': block '" + instance +
+                                      "' writes to state signal '" + target +
+                                      "'; states are written only by their own block");
+        }
+      }
+    }
+  }
+  for (const ParameterInfo& par : info.parameters) {
+    ModelParameter mp;
+    mp.name = instance + "." + par.name;
+    mp.info = par;
+    mp.value = par.nominal;
+    mp.scale = DefaultParameterScale(par);
+    mp.lower = par.lower;
+    mp.upper = par.upper;
+    parameters_.push_back(mp);
+  }
+  instances_.push_back({instance, std::move(block), inputs, outputs});
+}
+
+void Model::AddBlock(const std::string& instance, const std::string& type,
+                     const BlockOptions& options, const std::vector<std::string>& inputs,
+                     const std::vector<std::string>& outputs) {
+  AddBlock(instance, std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)),
+           inputs, outputs);
+}
+
+void Model::Augment(const std::string& instance, std::shared_ptr<const Block> block,
+                    const std::vector<std::string>& inputs,
+                    const std::vector<std::string>& outputs) {
+  AddBlock(instance, std::move(block), inputs, outputs);
+  for (auto& p : parameters_) {
+    if (p.name.rfind(instance + ".", 0) == 0 && p.info.HasNeutral()) p.value = p.info.neutral;
+  }
+}
+
+void Model::Augment(const std::string& instance, const std::string& type,
+                    const BlockOptions& options, const std::vector<std::string>& inputs,
+                    const std::vector<std::string>& outputs) {
+  Augment(instance, std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)),
+          inputs, outputs);
+}
+
+void Model::InsertOnSignal(const std::string& signal, const std::string& instance,
+                           std::shared_ptr<const Block> block) {
+  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+    throw std::invalid_argument(
+        "model '" + name_ + "': InsertOnSignal('" + signal +
+        "'): expected a block with 1 input and 1 output, got " +
+        (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
+               : std::string("null")));
+  }
+  const std::vector<std::string> known = Signals();
+  if (std::find(known.begin(), known.end(), signal) == known.end()) {
+    throw std::invalid_argument("model '" + name_ + "': InsertOnSignal: unknown signal '" + signal +
+                                "'" + Suggest(signal, known));
+  }
+  const std::string replacement = instance + ".out";
+  for (auto& inst : instances_) {
+    for (auto& in : inst.inputs) {
+      if (in == signal) in = replacement;
+    }
+  }
+  for (auto& out : outputs_) {
+    if (out == signal) out = replacement;
+  }
+  Augment(instance, std::move(block), {signal}, {replacement});
+}
+
+void Model::InsertOnSignal(const std::string& signal, const std::string& instance,
+                           const std::string& type, const BlockOptions& options) {
+  InsertOnSignal(signal, instance,
+                 std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)));
+}
+
+void Model::AddOutput(const std::string& signal) { outputs_.push_back(signal); }
+
+ModelParameter& Model::Parameter(const std::string& n) {
+  return parameters_[IndexByName(
+      parameters_, n, [](const ModelParameter& p) { return p.name; }, "parameter", name_)];
+}
+
+void Model::SetParameter(const std::string& n, double value) {
+  ModelParameter& p = Parameter(n);
+  if (!std::isfinite(value) || value < p.lower || value > p.upper) {
+    throw std::invalid_argument("model '" + name_ + "': parameter '" + n +
+                                "': expected a value in [" + std::to_string(p.lower) + ", " +
+                                std::to_string(p.upper) + "], got " + std::to_string(value));
+  }
+  p.value = value;
+}
+
+void Model::Fix(const std::string& n) { Parameter(n).free = false; }
+void Model::Free(const std::string& n) { Parameter(n).free = true; }
+
+std::vector<std::string> Model::Signals() const {
+  std::set<std::string> names;
+  for (const auto& in : inputs_) names.insert(in.info.name);
+  for (const auto& inst : instances_) {
+    for (const auto& s : inst.block->info().states) names.insert(inst.name + "." + s.name);
+    for (const auto& out : inst.outputs) {
+      if (!out.empty()) names.insert(Connection(out).first);
+    }
+  }
+  return {names.begin(), names.end()};
+}
+
+StateSpaceModel Model::Build() const {
+  StateSpaceModel ss;
+  ss.name = name_;
+  ss.parameters = parameters_;
+  // Symbols.
+  std::vector<Expr> x, u, p;
+  std::map<std::string, std::vector<Expr>> contributions;
+  std::map<std::string, SignalInfo> signal_info;
+  for (const auto& in : inputs_) {
+    const Expr s = Expr::Symbol(in.info.name);
+    u.push_back(s);
+    ss.inputs.push_back(in.info);
+    contributions[in.info.name].push_back(s);
+    signal_info[in.info.name] = in.info;
+  }
+  std::vector<int> state_offset, parameter_offset;
+  for (const auto& inst : instances_) {
+    state_offset.push_back(static_cast<int>(x.size()));
+    for (const auto& s : inst.block->info().states) {
+      SignalInfo qualified = s;
+      qualified.name = inst.name + "." + s.name;
+      const Expr sym = Expr::Symbol(qualified.name);
+      x.push_back(sym);
+      ss.states.push_back(qualified);
+      contributions[qualified.name].push_back(sym);
+      signal_info[qualified.name] = qualified;
+    }
+    ss.stiff = ss.stiff || inst.block->info().stiff;
+  }
+  for (const auto& par : parameters_) p.push_back(Expr::Symbol(par.name));
+  {
+    int offset = 0;
+    for (const auto& inst : instances_) {
+      parameter_offset.push_back(offset);
+      offset += inst.block->NumParameters();
+    }
+  }
+  // Which instances produce each signal.
+  std::map<std::string, std::vector<int>> producers;
+  for (std::size_t i = 0; i < instances_.size(); ++i) {
+    for (std::size_t k = 0; k < instances_[i].outputs.size(); ++k) {
+      const auto& out = instances_[i].outputs[k];
+      if (out.empty()) continue;
+      const std::string target = Connection(out).first;
+      producers[target].push_back(static_cast<int>(i));
+      SignalInfo info = instances_[i].block->info().outputs[k];
+      info.name = target;
+      signal_info.emplace(target, info);
+    }
+  }
+  const std::vector<std::string> known = Signals();
+  auto check_known = [&](const std::string& s, const std::string& where) {
+    if (contributions.count(s) || producers.count(s)) return;
+    throw std::invalid_argument("model '" + name_ + "': " + where + " reads signal '" + s +
+                                "', which no input, state or block output provides" +
+                                Suggest(s, known));
+  };
+  // Dependency order (Kahn): instance i waits for every producer of a signal it reads.
+  const int n = static_cast<int>(instances_.size());
+  std::vector<std::set<int>> waits_for(n);
+  for (int i = 0; i < n; ++i) {
+    for (std::size_t k = 0; k < instances_[i].inputs.size(); ++k) {
+      const std::string& s = instances_[i].inputs[k];
+      check_known(s, "block '" + instances_[i].name + "' input '" +
+                         instances_[i].block->info().inputs[k].name + "'");
+      auto it = producers.find(s);
+      if (it == producers.end()) continue;
+      for (int j : it->second) waits_for[i].insert(j);
+    }
+  }
+  for (const auto& out : outputs_) check_known(out, "output");
+  std::vector<int> order;
+  std::vector<bool> done(n, false);
+  while (static_cast<int>(order.size()) < n) {
+    bool progress = false;
+    for (int i = 0; i < n; ++i) {
+      if (done[i]) continue;
+      bool ready = true;
+      for (int j : waits_for[i]) ready = ready && done[j];
+      if (!ready) continue;
+      done[i] = true;
+      order.push_back(i);
+      progress = true;
+    }
+    if (!progress) {
+      std::vector<std::string> loop;
+      for (int i = 0; i < n; ++i) {
+        if (!done[i]) loop.push_back(instances_[i].name);
+      }
+      throw std::invalid_argument("model '" + name_ + "': algebraic loop among blocks " +
+                                  Names(loop) + "; expected a state between them");
+    }
+  }
+  auto value = [&](const std::string& s) {
+    Expr sum(0.0);
+    for (const Expr& c : contributions[s]) sum += c;
+    return sum;
+  };
+  // Evaluate the blocks symbolically.
+  std::vector<Expr> xdot(x.size());
+  for (int i : order) {
+    const Instance& inst = instances_[i];
+    const Block& b = *inst.block;
+    std::vector<Expr> in;
+    for (const auto& s : inst.inputs) in.push_back(value(s));
+    std::vector<Expr> y(b.NumOutputs()), dx(b.NumStates());
+    BlockArgs<Expr> args{x.data() + state_offset[i], in.data(), p.data() + parameter_offset[i],
+                         dx.data(), y.data()};
+    b.Evaluate(args);
+    for (int k = 0; k < b.NumStates(); ++k) xdot[state_offset[i] + k] = dx[k];
+    for (std::size_t k = 0; k < inst.outputs.size(); ++k) {
+      if (inst.outputs[k].empty()) continue;
+      const auto [target, sign] = Connection(inst.outputs[k]);
+      contributions[target].push_back(sign > 0 ? y[k] : -y[k]);
+    }
+  }
+  std::vector<Expr> y;
+  for (const auto& out : outputs_) {
+    y.push_back(value(out));
+    SignalInfo info = signal_info.count(out) ? signal_info[out] : SignalInfo{out, "", "", -1, 1};
+    info.name = out;
+    ss.outputs.push_back(info);
+  }
+  if (x.empty() && y.empty()) {
+    throw std::invalid_argument("model '" + name_ + "': expected states or outputs, got neither");
+  }
+  ss.dynamics =
+      expr::Function(name_ + "_dynamics", {{"x", x}, {"u", u}, {"p", p}}, {{"xdot", xdot}});
+  ss.output = expr::Function(name_ + "_output", {{"x", x}, {"u", u}, {"p", p}}, {{"y", y}});
+  return ss;
+}
+
+}  // namespace graybox::models

@@ -1,0 +1,186 @@
+// Model composition: signals, ordering, errors, and augmentation that leaves outputs unchanged.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "graybox/models/model.h"
+
+namespace graybox::models {
+namespace {
+
+using expr::Expr;
+
+// Test-local blocks (the registry's physical blocks are tested in their own suites).
+// A rotating inertia: state omega, input torque; omega_dot = torque / J.
+class Inertia : public BlockBase<Inertia> {
+ public:
+  Inertia() {
+    info_.type = "test.inertia";
+    info_.description = "rotating inertia";
+    info_.reference = "Newton";
+    info_.inputs = {{"torque", "N m", "applied torque", -1, 1}};
+    info_.states = {{"omega", "rad/s", "speed", -1, 1}};
+    info_.parameters = {{"J", "kg m^2", "inertia", 0.5, 1e-6, 10.0}};
+  }
+  template <typename S>
+  void Compute(const BlockArgs<S>& a) const {
+    a.xdot[0] = a.u[0] / a.p[0];
+  }
+};
+
+// A viscous brake: tau = b * qd, neutral at b = 0.
+class Brake : public BlockBase<Brake> {
+ public:
+  Brake() {
+    info_.type = "test.brake";
+    info_.description = "viscous brake";
+    info_.reference = "linear damping";
+    info_.inputs = {{"qd", "rad/s", "speed", -1, 1}};
+    info_.outputs = {{"tau", "N m", "braking torque", -1, 1}};
+    ParameterInfo b{"b", "N m s/rad", "damping", 0.2, 0.0, 10.0};
+    b.neutral = 0.0;
+    info_.parameters = {b};
+  }
+  template <typename S>
+  void Compute(const BlockArgs<S>& a) const {
+    a.y[0] = a.p[0] * a.u[0];
+  }
+};
+
+// A static gain y = k u, neutral at k = 1 (for InsertOnSignal).
+class Gain : public BlockBase<Gain> {
+ public:
+  Gain() {
+    info_.type = "test.gain";
+    info_.description = "gain";
+    info_.reference = "y = k u";
+    info_.inputs = {{"in", "1", "input", -1, 1}};
+    info_.outputs = {{"out", "1", "output", -1, 1}};
+    ParameterInfo k{"k", "1", "gain", 2.0, -10.0, 10.0};
+    k.neutral = 1.0;
+    info_.parameters = {k};
+  }
+  template <typename S>
+  void Compute(const BlockArgs<S>& a) const {
+    a.y[0] = a.p[0] * a.u[0];
+  }
+};
+
+Model BrakedInertia() {
+  Model m("braked");
+  m.AddInput("u", "N m", "motor torque");
+  m.AddBlock("load", std::make_shared<Inertia>(), {"u"}, {});
+  m.AddBlock("brake", std::make_shared<Brake>(), {"load.omega"}, {"-u"});
+  m.AddOutput("load.omega");
+  return m;
+}
+
+// RK4 simulation of a built model with a sinusoidal input; returns the outputs per step.
+std::vector<double> Simulate(const StateSpaceModel& ss, int steps) {
+  constexpr double kDt = 0.01;
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(ss.NumStates(), 0.3);
+  const Eigen::VectorXd p = ss.ParameterValues();
+  std::vector<double> y;
+  for (int k = 0; k < steps; ++k) {
+    const Eigen::VectorXd u = Eigen::VectorXd::Constant(ss.NumInputs(), std::sin(0.05 * k));
+    auto f = [&](const Eigen::VectorXd& xs) { return ss.dynamics({xs, u, p})[0]; };
+    const Eigen::VectorXd k1 = f(x), k2 = f(x + 0.5 * kDt * k1), k3 = f(x + 0.5 * kDt * k2),
+                          k4 = f(x + kDt * k3);
+    x += kDt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    y.push_back(ss.output({x, u, p})[0][0]);
+  }
+  return y;
+}
+
+TEST(Model, BuildsQualifiedStateSpaceModel) {
+  const StateSpaceModel ss = BrakedInertia().Build();
+  ASSERT_EQ(ss.NumStates(), 1);
+  EXPECT_EQ(ss.states[0].name, "load.omega");
+  EXPECT_EQ(ss.states[0].unit, "rad/s");
+  ASSERT_EQ(ss.NumParameters(), 2);
+  EXPECT_EQ(ss.parameters[0].name, "load.J");
+  EXPECT_EQ(ss.parameters[1].name, "brake.b");
+  // omega_dot = (u - b omega) / J at u = 1, omega = 2, J = 0.5, b = 0.2.
+  const auto xdot = ss.dynamics({Eigen::VectorXd::Constant(1, 2.0),
+                                 Eigen::VectorXd::Constant(1, 1.0), ss.ParameterValues()})[0];
+  constexpr double kExact = 1e-15;  // three floating-point operations
+  EXPECT_NEAR(xdot[0], (1.0 - 0.2 * 2.0) / 0.5, kExact);
+}
+
+TEST(Model, NeutralAugmentationLeavesOutputsUnchanged) {
+  const std::vector<double> before = Simulate(BrakedInertia().Build(), 200);
+  Model m = BrakedInertia();
+  m.Augment("extra_brake", std::make_shared<Brake>(), {"load.omega"}, {"-u"});
+  EXPECT_EQ(m.Parameter("extra_brake.b").value, 0.0);
+  const std::vector<double> after = Simulate(m.Build(), 200);
+  ASSERT_EQ(before.size(), after.size());
+  for (std::size_t k = 0; k < before.size(); ++k) EXPECT_EQ(before[k], after[k]) << "step " << k;
+  // Moving the new parameter away from neutral changes the output.
+  m.SetParameter("extra_brake.b", 1.0);
+  const std::vector<double> moved = Simulate(m.Build(), 200);
+  EXPECT_GT(std::fabs(moved.back() - before.back()), 1e-3);
+}
+
+TEST(Model, InsertOnSignalAtNeutralLeavesOutputsUnchanged) {
+  const std::vector<double> before = Simulate(BrakedInertia().Build(), 100);
+  Model m = BrakedInertia();
+  m.InsertOnSignal("u", "input_gain", std::make_shared<Gain>());
+  const StateSpaceModel ss = m.Build();
+  EXPECT_EQ(m.Parameter("input_gain.k").value, 1.0);
+  const std::vector<double> after = Simulate(ss, 100);
+  for (std::size_t k = 0; k < before.size(); ++k) EXPECT_EQ(before[k], after[k]) << "step " << k;
+}
+
+TEST(Model, UnknownSignalIsReportedWithASuggestion) {
+  Model m("typo");
+  m.AddInput("u", "N m");
+  m.AddBlock("load", std::make_shared<Inertia>(), {"u"}, {});
+  m.AddBlock("brake", std::make_shared<Brake>(), {"load.omgea"}, {"-u"});
+  try {
+    m.Build();
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("'load.omgea'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("did you mean 'load.omega'"), std::string::npos) << msg;
+  }
+}
+
+TEST(Model, AlgebraicLoopIsRejected) {
+  Model m("loop");
+  m.AddInput("u", "1");
+  m.AddBlock("g1", std::make_shared<Gain>(), {"a"}, {"b"});
+  m.AddBlock("g2", std::make_shared<Gain>(), {"b"}, {"a"});
+  m.AddOutput("a");
+  EXPECT_THROW(
+      {
+        try {
+          m.Build();
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("algebraic loop among blocks g1, g2"),
+                    std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      std::invalid_argument);
+}
+
+TEST(Model, BadConnectionsAndParametersAreRejected) {
+  Model m = BrakedInertia();
+  EXPECT_THROW(m.AddBlock("load", std::make_shared<Brake>(), {"u"}, {"-u"}), std::invalid_argument);
+  EXPECT_THROW(m.AddBlock("x", std::make_shared<Brake>(), {"u", "u"}, {"-u"}),
+               std::invalid_argument);
+  EXPECT_THROW(m.AddBlock("w", std::make_shared<Brake>(), {"u"}, {"load.omega"}),
+               std::invalid_argument);
+  EXPECT_THROW(m.SetParameter("load.J", -1.0), std::invalid_argument);
+  try {
+    m.Parameter("brake.bb");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'brake.b'"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace graybox::models

@@ -3,10 +3,12 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -16,12 +18,28 @@ namespace graybox::expr {
 
 namespace {
 
-bool IsIdentifier(const std::string& s) {
+// A C identifier usable as the exported function's name: not a keyword, not reserved (leading
+// "__" or "_X"), and not a name the generated file declares (gb_*) or takes from <math.h>.
+bool IsUsableIdentifier(const std::string& s) {
   if (s.empty() || !(std::isalpha(static_cast<unsigned char>(s[0])) || s[0] == '_')) return false;
   for (char c : s) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) return false;
   }
-  return true;
+  if (s.size() >= 2 && s[0] == '_' &&
+      (s[1] == '_' || std::isupper(static_cast<unsigned char>(s[1])))) {
+    return false;
+  }
+  if (s.rfind("gb_", 0) == 0) return false;
+  static const std::set<std::string> kTaken = {
+      // C11 keywords.
+      "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+      "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+      "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
+      "union", "unsigned", "void", "volatile", "while",
+      // <math.h> names the generated code uses.
+      "pow", "sqrt", "exp", "log", "log1p", "sin", "cos", "tan", "atan", "atan2", "tanh", "fabs",
+      "fmax", "erf", "NAN", "INFINITY"};
+  return kTaken.count(s) == 0;
 }
 
 std::string Literal(double v) {
@@ -170,8 +188,11 @@ std::string Trim(const std::string& s, std::size_t max_lines) {
 }  // namespace
 
 std::string GenerateC(const Function& f, const std::string& symbol) {
-  if (!IsIdentifier(symbol)) {
-    throw std::invalid_argument("GenerateC: expected a C identifier, got '" + symbol + "'");
+  if (!IsUsableIdentifier(symbol)) {
+    throw std::invalid_argument(
+        "GenerateC: expected a C identifier that is not a keyword, reserved, or used by the "
+        "generated code (gb_*, <math.h> functions), got '" +
+        symbol + "'");
   }
   const Tape tape(
       [&] {

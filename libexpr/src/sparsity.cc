@@ -27,11 +27,15 @@ Sparsity::Sparsity(int nrow, int ncol, std::vector<int> colind, std::vector<int>
         "Sparsity: expected colind[0] = 0 and colind[ncol] = nnz = " + std::to_string(row_.size()) +
         ", got " + std::to_string(colind_[0]) + " and " + std::to_string(colind_[ncol]));
   }
+  // All of colind first: with colind[0] = 0 and colind[ncol] = nnz, a nondecreasing colind keeps
+  // every column's range inside row, so the row checks below cannot read out of bounds.
   for (int j = 0; j < ncol; ++j) {
     if (colind_[j + 1] < colind_[j]) {
       throw std::invalid_argument("Sparsity: expected nondecreasing colind, got " +
                                   Where("colind", j + 1) + " < " + Where("colind", j));
     }
+  }
+  for (int j = 0; j < ncol; ++j) {
     for (int k = colind_[j]; k < colind_[j + 1]; ++k) {
       if (row_[k] < 0 || row_[k] >= nrow) {
         throw std::invalid_argument("Sparsity: expected row in [0, " + std::to_string(nrow) +
@@ -46,7 +50,17 @@ Sparsity::Sparsity(int nrow, int ncol, std::vector<int> colind, std::vector<int>
   }
 }
 
+namespace {
+void CheckSizes(const char* who, int nrow, int ncol) {
+  if (nrow < 0 || ncol < 0) {
+    throw std::invalid_argument(std::string(who) + ": expected nonnegative sizes, got " +
+                                std::to_string(nrow) + "x" + std::to_string(ncol));
+  }
+}
+}  // namespace
+
 Sparsity Sparsity::Dense(int nrow, int ncol) {
+  CheckSizes("Sparsity::Dense", nrow, ncol);
   std::vector<int> colind(ncol + 1), row;
   row.reserve(static_cast<std::size_t>(nrow) * ncol);
   for (int j = 0; j < ncol; ++j) {
@@ -58,6 +72,7 @@ Sparsity Sparsity::Dense(int nrow, int ncol) {
 }
 
 Sparsity Sparsity::FromTriplets(int nrow, int ncol, const std::vector<std::pair<int, int>>& rc) {
+  CheckSizes("Sparsity::FromTriplets", nrow, ncol);
   std::vector<std::pair<int, int>> cr;
   cr.reserve(rc.size());
   for (std::size_t k = 0; k < rc.size(); ++k) {

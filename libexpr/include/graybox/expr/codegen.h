@@ -24,7 +24,9 @@
 
 namespace graybox::expr {
 
-/// C source for `f` exporting `symbol` (a C identifier; std::invalid_argument otherwise).
+/// C source for `f` exporting `symbol`: a C identifier that is not a keyword, not reserved
+/// (leading "__" or "_X"), and not a name the generated file declares (gb_*) or calls from
+/// <math.h> (sin, exp, pow, ...); std::invalid_argument otherwise.
 std::string GenerateC(const Function& f, const std::string& symbol);
 
 struct JitOptions {

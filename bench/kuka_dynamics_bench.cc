@@ -1,4 +1,5 @@
-// libexpr benchmarks on the KUKA KR300 R2500 forward dynamics (models/kuka_kr300.h):
+// Benchmarks of the KUKA KR300 R2500 dynamics (models/kuka_kr300.h) through libexpr. Forward
+// dynamics:
 //   qdd = M(q)^-1 (u o tau_m - tau_f(qd) - g(q) - tau_hwc(q2) e2 - C(q, qd) qd),
 // built once from libexpr operations (recursive Newton-Euler, mass matrix, LDL^T solve) and
 // evaluated
@@ -6,8 +7,9 @@
 //   - as generated C compiled at run time (CompiledFunction);
 //   - as the same template instantiated on double ("hand-written C++ doubles");
 // plus the reverse-mode gradient of a scalar projection w^T qdd and the full sparse Jacobian
-// d qdd / d (q, qd, tau). Every benchmark reports time per point; ratios are formed from one run
-// (see docs/performance.md).
+// d qdd / d (q, qd, tau). Inverse dynamics tau_m = (M qdd + C qd + g + tau_HWC e2 + tau_f) / u:
+// on doubles, tape and generated code, with its Jacobian d tau / d (q, qd, qdd). Every benchmark
+// reports time per point; ratios are formed from one run (see docs/performance.md).
 #include <benchmark/benchmark.h>
 
 #include <random>
@@ -50,6 +52,8 @@ struct KukaFunctions {
   Function gradient;
   Function reverse;
   Function jacobian;
+  Function id;
+  Function id_jacobian;
   KukaFunctions() {
     const std::vector<Expr> x = Expr::Symbols("x", kInputs);
     models::JointVector<Expr> q(kDof), qd(kDof), tau(kDof);
@@ -66,6 +70,13 @@ struct KukaFunctions {
     gradient = fd.Gradient("wqdd", "x");
     reverse = fd.Reverse(1);
     jacobian = fd.Jacobian("qdd", "x");
+    // Inverse dynamics: x = (q, qd, qdd) -> tau_m.
+    models::JointVector<Expr> qdd_in(kDof);
+    for (int i = 0; i < kDof; ++i) qdd_in[i] = x[2 * kDof + i];
+    const models::JointVector<Expr> tau_m = models::KukaInverseDynamics(q, qd, qdd_in);
+    id = Function("kuka_id", {{"x", x}},
+                  {{"tau", std::vector<Expr>(tau_m.data(), tau_m.data() + kDof)}});
+    id_jacobian = id.Jacobian("tau", "x");
   }
 };
 
@@ -196,6 +207,34 @@ void BM_KukaJacobian_TapeBatch(benchmark::State& state) { RunTapeBatch(state, Ku
 BENCHMARK(BM_KukaJacobian_TapeBatch)->Arg(1024);
 void BM_KukaJacobian_Native(benchmark::State& state) { RunNativeSingle(state, Kuka().jacobian); }
 BENCHMARK(BM_KukaJacobian_Native);
+
+void BM_KukaId_Double(benchmark::State& state) {
+  const Eigen::MatrixXd x = Points(256);
+  std::int64_t p = 0;
+  models::JointVector<double> q(kDof), qd(kDof), qdd(kDof);
+  for (auto _ : state) {
+    const auto col = x.col(p++ % x.cols());
+    for (int i = 0; i < kDof; ++i) {
+      q[i] = col[i];
+      qd[i] = col[kDof + i];
+      qdd[i] = col[2 * kDof + i];
+    }
+    benchmark::DoNotOptimize(models::KukaInverseDynamics(q, qd, qdd));
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_KukaId_Double);
+void BM_KukaId_Tape(benchmark::State& state) { RunTapeSingle(state, Kuka().id); }
+BENCHMARK(BM_KukaId_Tape);
+void BM_KukaId_Native(benchmark::State& state) { RunNativeSingle(state, Kuka().id); }
+BENCHMARK(BM_KukaId_Native);
+void BM_KukaIdJacobian_Tape(benchmark::State& state) { RunTapeSingle(state, Kuka().id_jacobian); }
+BENCHMARK(BM_KukaIdJacobian_Tape);
+void BM_KukaIdJacobian_Native(benchmark::State& state) {
+  RunNativeSingle(state, Kuka().id_jacobian);
+}
+BENCHMARK(BM_KukaIdJacobian_Native);
 
 // Building the graph and the tape (symbolic work, done once per model).
 void BM_KukaFd_BuildFunction(benchmark::State& state) {

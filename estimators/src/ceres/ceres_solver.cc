@@ -1,0 +1,176 @@
+// Ceres backend: the residual groups of an Nlp as residual blocks with analytic Jacobians from
+// libexpr; every variable is a one-dimensional parameter block (so shared variables, bounds and
+// sparsity need no bookkeeping), solved by sparse normal Cholesky through SuiteSparse.
+#include <ceres/ceres.h>
+
+#include <chrono>
+#include <cstdio>
+#include <stdexcept>
+
+#include "graybox/estimators/solvers.h"
+#include "graybox/expr/derivatives.h"
+
+namespace graybox::estimators {
+
+namespace {
+
+using expr::Function;
+using expr::Sparsity;
+
+// Residual and Jacobian Functions of one group, shared by its residual blocks.
+struct GroupFunctions {
+  Function residual;  // z, d -> r
+  Function jacobian;  // z, d -> nonzeros of dr/dz
+  Sparsity pattern;
+  std::vector<int> pattern_col;
+};
+
+class ElementCost : public ceres::CostFunction {
+ public:
+  ElementCost(const GroupFunctions* fns, const double* data, int nz, int nr)
+      : fns_(fns),
+        data_(data),
+        ws_r_(fns->residual.MakeWorkspace()),
+        ws_j_(fns->jacobian.MakeWorkspace()),
+        z_(nz),
+        jac_(fns->pattern.nnz()) {
+    set_num_residuals(nr);
+    for (int k = 0; k < nz; ++k) mutable_parameter_block_sizes()->push_back(1);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    for (int k = 0; k < z_.size(); ++k) z_[k] = parameters[k][0];
+    const double* in[2] = {z_.data(), data_};
+    double* out_r[1] = {residuals};
+    if (!fns_->residual.Evaluate(in, out_r, &ws_r_).ok) return false;
+    if (jacobians == nullptr) return true;
+    double* out_j[1] = {jac_.data()};
+    if (!fns_->jacobian.Evaluate(in, out_j, &ws_j_).ok) return false;
+    const int nr = num_residuals();
+    for (int k = 0; k < z_.size(); ++k) {
+      if (jacobians[k] != nullptr) std::fill(jacobians[k], jacobians[k] + nr, 0.0);
+    }
+    for (int e = 0; e < fns_->pattern.nnz(); ++e) {
+      double* column = jacobians[fns_->pattern_col[e]];
+      if (column != nullptr) column[fns_->pattern.row()[e]] = jac_[e];
+    }
+    return true;
+  }
+
+ private:
+  const GroupFunctions* fns_;
+  const double* data_;
+  mutable expr::Workspace ws_r_, ws_j_;
+  mutable Eigen::VectorXd z_, jac_;
+};
+
+ceres::LossFunction* MakeLoss(const CeresOptions& o) {
+  if (o.loss == "trivial") return nullptr;
+  if (o.loss == "huber") return new ceres::HuberLoss(o.loss_scale);
+  if (o.loss == "cauchy") return new ceres::CauchyLoss(o.loss_scale);
+  if (o.loss == "soft_l1") return new ceres::SoftLOneLoss(o.loss_scale);
+  if (o.loss == "arctan") return new ceres::ArctanLoss(o.loss_scale);
+  return nullptr;  // rejected by Validate
+}
+
+}  // namespace
+
+void CeresOptions::Validate() const {
+  const std::vector<std::string> losses = {"trivial", "huber", "cauchy", "soft_l1", "arctan"};
+  if (std::find(losses.begin(), losses.end(), loss) == losses.end()) {
+    throw std::invalid_argument(
+        "CeresOptions.loss: expected one of trivial, huber, cauchy, "
+        "soft_l1, arctan, got '" +
+        loss + "'");
+  }
+  if (!(loss_scale > 0.0)) {
+    throw std::invalid_argument("CeresOptions.loss_scale: expected > 0, got " +
+                                std::to_string(loss_scale));
+  }
+  if (max_iterations < 0 || num_threads < 1) {
+    throw std::invalid_argument("CeresOptions: expected max_iterations >= 0 and num_threads >= 1");
+  }
+}
+
+SolverResult SolveWithCeres(const Nlp& nlp, const CeresOptions& options) {
+  options.Validate();
+  nlp.CheckBounds();
+  if (nlp.NumConstraints() > 0) {
+    throw std::invalid_argument(
+        "SolveWithCeres: expected a least-squares problem without "
+        "constraints, got " +
+        std::to_string(nlp.NumConstraints()) +
+        " constraints; use SolveWithIpopt or penalise them as residuals");
+  }
+  std::vector<GroupFunctions> fns(nlp.groups().size());
+  for (std::size_t g = 0; g < nlp.groups().size(); ++g) {
+    const ElementGroup& group = nlp.groups()[g];
+    for (int j = 0; j < group.fn.NumOutputs(); ++j) {
+      if (group.fn.OutputName(j) == "f") {
+        throw std::invalid_argument("SolveWithCeres: group '" + group.name +
+                                    "' has a general objective term 'f'; expected residuals 'r' "
+                                    "only");
+      }
+    }
+    const int jr = group.fn.OutputIndex("r");
+    fns[g].residual = Function(group.name + "_r",
+                               {{"z", group.fn.InputSymbols(group.fn.InputIndex("z"))},
+                                {"d", group.fn.InputSymbols(group.fn.InputIndex("d"))}},
+                               {{"r", group.fn.OutputExprs(jr)}});
+    fns[g].jacobian = fns[g].residual.Jacobian("r", "z");
+    fns[g].pattern = fns[g].jacobian.OutputSparsity(0);
+    fns[g].pattern_col = fns[g].pattern.ColumnOfNonzeros();
+  }
+  SolverResult result;
+  result.solver = "ceres";
+  std::vector<double> w(nlp.w0().data(), nlp.w0().data() + nlp.NumVariables());
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  for (int i = 0; i < nlp.NumVariables(); ++i) {
+    problem.AddParameterBlock(&w[i], 1);
+    if (std::isfinite(nlp.lbw()[i])) problem.SetParameterLowerBound(&w[i], 0, nlp.lbw()[i]);
+    if (std::isfinite(nlp.ubw()[i])) problem.SetParameterUpperBound(&w[i], 0, nlp.ubw()[i]);
+    if (nlp.lbw()[i] == nlp.ubw()[i]) problem.SetParameterBlockConstant(&w[i]);
+  }
+  for (std::size_t g = 0; g < nlp.groups().size(); ++g) {
+    const ElementGroup& group = nlp.groups()[g];
+    const int nz = static_cast<int>(group.index.rows());
+    const int nr = fns[g].residual.OutputSize(0);
+    if (nr == 0) continue;
+    for (int e = 0; e < group.NumInstances(); ++e) {
+      std::vector<double*> blocks(nz);
+      for (int k = 0; k < nz; ++k) blocks[k] = &w[group.index(k, e)];
+      problem.AddResidualBlock(new ElementCost(&fns[g], group.data.col(e).data(), nz, nr),
+                               MakeLoss(options), blocks);
+    }
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.gradient_tolerance = options.gradient_tolerance;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.minimizer_progress_to_stdout = options.print_progress;
+  ceres::Solver::Summary summary;
+  const auto start = std::chrono::steady_clock::now();
+  ceres::Solve(solver_options, &problem, &summary);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.w = Eigen::Map<Eigen::VectorXd>(w.data(), static_cast<Eigen::Index>(w.size()));
+  result.cost = summary.final_cost;
+  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result.status = ceres::TerminationTypeToString(summary.termination_type);
+  result.success = summary.termination_type == ceres::CONVERGENCE;
+  if (!result.success) result.message = summary.message;
+  for (const auto& it : summary.iterations) {
+    char line[160];
+    std::snprintf(line, sizeof line, "%4d  cost %.10e  gradient %.3e  step %.3e", it.iteration,
+                  it.cost, it.gradient_max_norm, it.step_norm);
+    result.log.emplace_back(line);
+  }
+  return result;
+}
+
+}  // namespace graybox::estimators

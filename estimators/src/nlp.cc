@@ -1,0 +1,377 @@
+#include "graybox/estimators/nlp.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "graybox/expr/derivatives.h"
+
+namespace graybox::estimators {
+
+using expr::EvalStatus;
+using expr::Expr;
+using expr::Function;
+using expr::FunctionIo;
+using expr::Sparsity;
+using expr::Workspace;
+
+// Per-group derivative Functions, workspaces and scatter maps.
+struct Nlp::Prepared {
+  int nz = 0, nd = 0, nc = 0, nr = 0;
+  bool has_objective = false;
+  Function objective;  // z, d -> f_e + 1/2 |r_e|^2
+  Function gradient;   // z, d -> d objective / dz
+  Function constraints;
+  Function jac_c;  // z, d -> nonzeros of dc/dz
+  Function residuals;
+  Function jac_r;
+  Function hessian;  // z, d, sigma, lambda -> lower triangle
+  Sparsity jac_c_sp, jac_r_sp, hess_sp;
+  int constraint_offset = 0;
+  int residual_offset = 0;
+  std::vector<int> hess_slot;  // nnz(hess_sp) x instances -> global Hessian entry
+  // Mutable scratch (evaluation is not thread-safe per Nlp).
+  mutable Workspace ws_obj, ws_grad, ws_c, ws_jc, ws_r, ws_jr, ws_h;
+  mutable Eigen::VectorXd z, buffer;
+};
+
+namespace {
+
+NlpEvalStatus Fail(const ElementGroup& g, int instance, const EvalStatus& s) {
+  return {false,
+          "element group '" + g.name + "' instance " + std::to_string(instance) + ": " + s.message};
+}
+
+}  // namespace
+
+Nlp::Nlp(Eigen::VectorXd w0, Eigen::VectorXd lbw, Eigen::VectorXd ubw,
+         std::vector<std::string> names)
+    : w0_(std::move(w0)), lbw_(std::move(lbw)), ubw_(std::move(ubw)), names_(std::move(names)) {
+  if (lbw_.size() != w0_.size() || ubw_.size() != w0_.size()) {
+    throw std::invalid_argument("Nlp: expected bounds of size " + std::to_string(w0_.size()) +
+                                ", got " + std::to_string(lbw_.size()) + " and " +
+                                std::to_string(ubw_.size()));
+  }
+  if (names_.empty()) names_.assign(w0_.size(), "");
+  if (names_.size() != static_cast<std::size_t>(w0_.size())) {
+    throw std::invalid_argument("Nlp: expected " + std::to_string(w0_.size()) + " names, got " +
+                                std::to_string(names_.size()));
+  }
+}
+
+int Nlp::AddGroup(ElementGroup group) {
+  const Function& fn = group.fn;
+  const std::string where = "Nlp group '" + group.name + "'";
+  const int iz = fn.InputIndex("z");
+  const int id = fn.InputIndex("d");
+  auto p = std::make_shared<Prepared>();
+  p->nz = fn.InputSize(iz);
+  p->nd = fn.InputSize(id);
+  if (group.index.rows() != p->nz) {
+    throw std::invalid_argument(where + ": expected index with " + std::to_string(p->nz) +
+                                " rows (size of z), got " + std::to_string(group.index.rows()));
+  }
+  if (group.data.rows() != p->nd || group.data.cols() != group.index.cols()) {
+    throw std::invalid_argument(where + ": expected data of size " + std::to_string(p->nd) + "x" +
+                                std::to_string(group.index.cols()) + ", got " +
+                                std::to_string(group.data.rows()) + "x" +
+                                std::to_string(group.data.cols()));
+  }
+  if (!group.data.allFinite()) {
+    throw std::invalid_argument(where + ": data contains NaN or Inf");
+  }
+  for (int e = 0; e < group.index.cols(); ++e) {
+    for (int k = 0; k < p->nz; ++k) {
+      const int v = group.index(k, e);
+      if (v < 0 || v >= NumVariables()) {
+        throw std::invalid_argument(where + ": instance " + std::to_string(e) + " entry " +
+                                    std::to_string(k) + ": expected a variable index in [0, " +
+                                    std::to_string(NumVariables()) + "), got " + std::to_string(v));
+      }
+      for (int j = 0; j < k; ++j) {
+        if (group.index(j, e) == v) {
+          throw std::invalid_argument(where + ": instance " + std::to_string(e) +
+                                      " reads variable " + std::to_string(v) + " twice");
+        }
+      }
+    }
+  }
+  auto output = [&](const char* name) -> int {
+    for (int j = 0; j < fn.NumOutputs(); ++j) {
+      if (fn.OutputName(j) == name) return j;
+    }
+    return -1;
+  };
+  const int jf = output("f"), jr = output("r"), jc = output("c");
+  for (int j = 0; j < fn.NumOutputs(); ++j) {
+    const std::string& n = fn.OutputName(j);
+    if (n != "f" && n != "r" && n != "c") {
+      throw std::invalid_argument(where + ": unknown output '" + n +
+                                  "'; expected \"f\", \"r\" or \"c\"");
+    }
+  }
+  if (jf >= 0 && fn.OutputSize(jf) != 1) {
+    throw std::invalid_argument(where + ": expected output 'f' with 1 entry, got " +
+                                std::to_string(fn.OutputSize(jf)));
+  }
+  p->nc = jc >= 0 ? fn.OutputSize(jc) : 0;
+  p->nr = jr >= 0 ? fn.OutputSize(jr) : 0;
+  if (group.lbc.size() != p->nc || group.ubc.size() != p->nc) {
+    throw std::invalid_argument(
+        where + ": expected constraint bounds of size " + std::to_string(p->nc) + ", got " +
+        std::to_string(group.lbc.size()) + " and " + std::to_string(group.ubc.size()));
+  }
+  const std::vector<FunctionIo> ins = {{"z", fn.InputSymbols(iz)}, {"d", fn.InputSymbols(id)}};
+  // Objective contribution f_e + 1/2 |r_e|^2.
+  Expr obj(0.0);
+  if (jf >= 0) obj += fn.OutputExprs(jf)[0];
+  if (jr >= 0) {
+    Expr ss(0.0);
+    for (const Expr& r : fn.OutputExprs(jr)) ss += r * r;
+    obj += 0.5 * ss;
+  }
+  p->has_objective = jf >= 0 || jr >= 0;
+  std::vector<Expr> cons = jc >= 0 ? fn.OutputExprs(jc) : std::vector<Expr>{};
+  std::vector<Expr> res = jr >= 0 ? fn.OutputExprs(jr) : std::vector<Expr>{};
+  const Function combined(group.name, ins, {{"f", {obj}}, {"c", cons}, {"r", res}});
+  p->objective = Function(group.name + "_f", ins, {{"f", {obj}}});
+  p->gradient = combined.Gradient("f", "z");
+  p->constraints = Function(group.name + "_c", ins, {{"c", cons}});
+  p->jac_c = combined.Jacobian("c", "z");
+  p->jac_c_sp = p->jac_c.OutputSparsity(0);
+  p->residuals = Function(group.name + "_r", ins, {{"r", res}});
+  p->jac_r = combined.Jacobian("r", "z");
+  p->jac_r_sp = p->jac_r.OutputSparsity(0);
+  p->hessian = expr::HessianOfLagrangian(combined, "z", "f", "c");
+  p->hess_sp = p->hessian.OutputSparsity(0);
+  p->ws_obj = p->objective.MakeWorkspace();
+  p->ws_grad = p->gradient.MakeWorkspace();
+  p->ws_c = p->constraints.MakeWorkspace();
+  p->ws_jc = p->jac_c.MakeWorkspace();
+  p->ws_r = p->residuals.MakeWorkspace();
+  p->ws_jr = p->jac_r.MakeWorkspace();
+  p->ws_h = p->hessian.MakeWorkspace();
+  p->z.resize(p->nz);
+  p->buffer.resize(
+      std::max({p->nz, p->nc, p->nr, p->jac_c_sp.nnz(), p->jac_r_sp.nnz(), p->hess_sp.nnz(), 1}));
+  p->constraint_offset = num_constraints_;
+  p->residual_offset = num_residuals_;
+  // Jacobian triplets.
+  const int instances = group.NumInstances();
+  const std::vector<int> c_col = p->jac_c_sp.ColumnOfNonzeros();
+  const std::vector<int> r_col = p->jac_r_sp.ColumnOfNonzeros();
+  for (int e = 0; e < instances; ++e) {
+    for (int k = 0; k < p->jac_c_sp.nnz(); ++k) {
+      jac_rows_.push_back(p->constraint_offset + e * p->nc + p->jac_c_sp.row()[k]);
+      jac_cols_.push_back(group.index(c_col[k], e));
+    }
+    for (int k = 0; k < p->jac_r_sp.nnz(); ++k) {
+      rjac_rows_.push_back(p->residual_offset + e * p->nr + p->jac_r_sp.row()[k]);
+      rjac_cols_.push_back(group.index(r_col[k], e));
+    }
+  }
+  num_constraints_ += instances * p->nc;
+  num_residuals_ += instances * p->nr;
+  const int offset = p->constraint_offset;
+  groups_.push_back(std::move(group));
+  prepared_.push_back(std::move(p));
+  BuildHessianStructure();
+  return offset;
+}
+
+void Nlp::BuildHessianStructure() {
+  std::unordered_map<std::int64_t, int> slot;
+  hess_rows_.clear();
+  hess_cols_.clear();
+  const std::int64_t n = NumVariables();
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    Prepared& p = *prepared_[g];
+    const ElementGroup& group = groups_[g];
+    const std::vector<int> col = p.hess_sp.ColumnOfNonzeros();
+    const int nnz = p.hess_sp.nnz();
+    p.hess_slot.assign(static_cast<std::size_t>(nnz) * group.NumInstances(), 0);
+    for (int e = 0; e < group.NumInstances(); ++e) {
+      for (int k = 0; k < nnz; ++k) {
+        int a = group.index(p.hess_sp.row()[k], e);
+        int b = group.index(col[k], e);
+        if (a < b) std::swap(a, b);
+        const std::int64_t key = a * n + b;
+        auto [it, inserted] = slot.emplace(key, static_cast<int>(hess_rows_.size()));
+        if (inserted) {
+          hess_rows_.push_back(a);
+          hess_cols_.push_back(b);
+        }
+        p.hess_slot[static_cast<std::size_t>(e) * nnz + k] = it->second;
+      }
+    }
+  }
+}
+
+Eigen::VectorXd Nlp::lbg() const {
+  Eigen::VectorXd lb(num_constraints_);
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      lb.segment(p.constraint_offset + e * p.nc, p.nc) = groups_[g].lbc;
+    }
+  }
+  return lb;
+}
+
+Eigen::VectorXd Nlp::ubg() const {
+  Eigen::VectorXd ub(num_constraints_);
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      ub.segment(p.constraint_offset + e * p.nc, p.nc) = groups_[g].ubc;
+    }
+  }
+  return ub;
+}
+
+void Nlp::CheckBounds() const {
+  for (int i = 0; i < NumVariables(); ++i) {
+    const std::string name = names_[i].empty() ? "w[" + std::to_string(i) + "]" : names_[i];
+    if (!std::isfinite(w0_[i])) {
+      throw std::invalid_argument("variable '" + name + "': expected a finite initial value, got " +
+                                  std::to_string(w0_[i]));
+    }
+    if (std::isnan(lbw_[i]) || std::isnan(ubw_[i]) || lbw_[i] > ubw_[i]) {
+      throw std::invalid_argument("variable '" + name +
+                                  "': infeasible bounds: expected lower <= "
+                                  "upper, got [" +
+                                  std::to_string(lbw_[i]) + ", " + std::to_string(ubw_[i]) + "]");
+    }
+  }
+  for (const ElementGroup& g : groups_) {
+    for (int i = 0; i < g.lbc.size(); ++i) {
+      if (std::isnan(g.lbc[i]) || std::isnan(g.ubc[i]) || g.lbc[i] > g.ubc[i]) {
+        throw std::invalid_argument("constraint " + std::to_string(i) + " of group '" + g.name +
+                                    "': infeasible bounds [" + std::to_string(g.lbc[i]) + ", " +
+                                    std::to_string(g.ubc[i]) + "]");
+      }
+    }
+  }
+}
+
+namespace {
+
+// Gathers z for instance e and evaluates `fn` into `out` (one output).
+EvalStatus EvalInstance(const Function& fn, const ElementGroup& g, int e, const double* w,
+                        Eigen::VectorXd* z, Workspace* ws, double* out,
+                        const double* extra0 = nullptr, const double* extra1 = nullptr) {
+  for (int k = 0; k < z->size(); ++k) (*z)[k] = w[g.index(k, e)];
+  const double* in[4] = {z->data(), g.data.col(e).data(), extra0, extra1};
+  double* outs[1] = {out};
+  return fn.Evaluate(in, outs, ws);
+}
+
+}  // namespace
+
+NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
+  double sum = 0.0;
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    if (!p.has_objective) continue;
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      double v = 0.0;
+      const EvalStatus s = EvalInstance(p.objective, groups_[g], e, w, &p.z, &p.ws_obj, &v);
+      if (!s.ok) return Fail(groups_[g], e, s);
+      sum += v;
+    }
+  }
+  *f = sum;
+  return {};
+}
+
+NlpEvalStatus Nlp::Gradient(const double* w, double* grad) const {
+  Eigen::Map<Eigen::VectorXd>(grad, NumVariables()).setZero();
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    if (!p.has_objective) continue;
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      const EvalStatus s =
+          EvalInstance(p.gradient, groups_[g], e, w, &p.z, &p.ws_grad, p.buffer.data());
+      if (!s.ok) return Fail(groups_[g], e, s);
+      for (int k = 0; k < p.nz; ++k) grad[groups_[g].index(k, e)] += p.buffer[k];
+    }
+  }
+  return {};
+}
+
+NlpEvalStatus Nlp::Constraints(const double* w, double* c) const {
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    if (p.nc == 0) continue;
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      const EvalStatus s = EvalInstance(p.constraints, groups_[g], e, w, &p.z, &p.ws_c,
+                                        c + p.constraint_offset + e * p.nc);
+      if (!s.ok) return Fail(groups_[g], e, s);
+    }
+  }
+  return {};
+}
+
+NlpEvalStatus Nlp::Residuals(const double* w, double* r) const {
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    if (p.nr == 0) continue;
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      const EvalStatus s = EvalInstance(p.residuals, groups_[g], e, w, &p.z, &p.ws_r,
+                                        r + p.residual_offset + e * p.nr);
+      if (!s.ok) return Fail(groups_[g], e, s);
+    }
+  }
+  return {};
+}
+
+NlpEvalStatus Nlp::JacobianValues(const double* w, double* values) const {
+  std::size_t offset = 0;
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    const int nnz = p.jac_c_sp.nnz();
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      if (nnz == 0) continue;
+      const EvalStatus s = EvalInstance(p.jac_c, groups_[g], e, w, &p.z, &p.ws_jc, values + offset);
+      if (!s.ok) return Fail(groups_[g], e, s);
+      offset += nnz;
+    }
+  }
+  return {};
+}
+
+NlpEvalStatus Nlp::ResidualJacobianValues(const double* w, double* values) const {
+  std::size_t offset = 0;
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    const int nnz = p.jac_r_sp.nnz();
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      if (nnz == 0) continue;
+      const EvalStatus s = EvalInstance(p.jac_r, groups_[g], e, w, &p.z, &p.ws_jr, values + offset);
+      if (!s.ok) return Fail(groups_[g], e, s);
+      offset += nnz;
+    }
+  }
+  return {};
+}
+
+NlpEvalStatus Nlp::HessianValues(const double* w, double sigma, const double* lambda,
+                                 double* values) const {
+  Eigen::Map<Eigen::VectorXd>(values, static_cast<Eigen::Index>(hess_rows_.size())).setZero();
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Prepared& p = *prepared_[g];
+    const int nnz = p.hess_sp.nnz();
+    if (nnz == 0) continue;
+    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
+      const double* lam = lambda + p.constraint_offset + e * p.nc;
+      const EvalStatus s =
+          EvalInstance(p.hessian, groups_[g], e, w, &p.z, &p.ws_h, p.buffer.data(), &sigma, lam);
+      if (!s.ok) return Fail(groups_[g], e, s);
+      const int* slot = p.hess_slot.data() + static_cast<std::size_t>(e) * nnz;
+      for (int k = 0; k < nnz; ++k) values[slot[k]] += p.buffer[k];
+    }
+  }
+  return {};
+}
+
+}  // namespace graybox::estimators

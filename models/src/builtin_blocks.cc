@@ -7,6 +7,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterDriveBlocks(registry);
   RegisterPneumaticBlocks(registry);
   RegisterNetworkBlocks(registry);
+  RegisterRobotBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

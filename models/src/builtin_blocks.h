@@ -12,5 +12,6 @@ void RegisterFrictionBlocks(BlockRegistry& registry);   // src/friction_blocks.c
 void RegisterDriveBlocks(BlockRegistry& registry);      // src/drive_blocks.cc
 void RegisterPneumaticBlocks(BlockRegistry& registry);  // src/pneumatic_blocks.cc
 void RegisterNetworkBlocks(BlockRegistry& registry);    // src/network_blocks.cc
+void RegisterRobotBlocks(BlockRegistry& registry);      // src/robot_blocks.cc
 
 }  // namespace graybox::models::internal

@@ -213,6 +213,20 @@ TEST(CompiledFunction, LiteralsNonFiniteReportingAndArgumentChecks) {
       {"input 'x': expected size 1, got 2"});
 }
 
+TEST(CompiledFunction, TrivialFunctionsCompile) {
+  // No instructions at all: outputs are raw inputs and constants; and a function of nothing.
+  const Expr x = Expr::Symbol("x"), unused = Expr::Symbol("u");
+  const Function raw("raw", {{"x", {x, unused}}}, {{"y", {x, Expr(3.0), x}}, {"none", {}}});
+  const CompiledFunction native_raw(raw);
+  ASSERT_TRUE(native_raw.IsNative()) << native_raw.FallbackReason();
+  const auto r = native_raw({Eigen::Vector2d(7.0, 1.0)});
+  EXPECT_EQ(r[0], Eigen::Vector3d(7.0, 3.0, 7.0));
+  EXPECT_EQ(r[1].size(), 0);
+  const CompiledFunction native_empty{Function()};
+  ASSERT_TRUE(native_empty.IsNative()) << native_empty.FallbackReason();
+  EXPECT_TRUE(native_empty({}).empty());
+}
+
 TEST(CompiledFunction, ThreadsShareOneNativeFunction) {
   constexpr int kThreads = 4;
   const std::vector<Expr> x = Expr::Symbols("x", 3);

@@ -159,6 +159,23 @@ TEST(DerivativeModes, FreeFunctionsValidateArguments) {
   EXPECT_TRUE(Gradient(b * b, {a})[0].IsZero());
 }
 
+TEST(DerivativeModes, DerivativesWithoutDependenceAreEmptyOrZero) {
+  const std::vector<Expr> x = Expr::Symbols("x", 3), p = Expr::Symbols("p", 1);
+  const Function f("lin", {{"x", x}, {"p", p}},
+                   {{"lin", {2.0 * x[0] - x[1] + 3.0 * x[2] * p[0]}}, {"c", {p[0] * p[0], 5.0}}});
+  const Function h = f.Hessian("lin", "x");
+  EXPECT_EQ(h.OutputSparsity(0).nnz(), 0);
+  EXPECT_EQ(h.OutputSparsity(0).rows(), 3);
+  const Function j = f.Jacobian("c", "x");
+  EXPECT_EQ(j.OutputSparsity(0), Sparsity(2, 3, {0, 0, 0, 0}, {}));
+  const std::vector<Eigen::VectorXd> point = {Eigen::Vector3d(1, 2, 3), Eigen::VectorXd::Ones(1)};
+  EXPECT_EQ(j(point)[0].size(), 0);
+  EXPECT_EQ(f.Gradient("lin", "x")(point)[0], Eigen::Vector3d(2, -1, 3));
+  // Mixed second derivative through the parameter: d/dp of the gradient.
+  const Function g = f.Gradient("lin", "x");
+  EXPECT_EQ(DenseJacobian(g, g.OutputName(0), "p", point), Eigen::Vector3d(0, 0, 3));
+}
+
 // ---- sparsity of known structures --------------------------------------------------------
 
 TEST(JacobianStructure, ArrowPatternIsExact) {

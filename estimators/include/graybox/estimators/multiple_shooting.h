@@ -1,0 +1,82 @@
+// Multiple shooting: simulation-error identification of a StateSpaceModel as a structured NLP.
+//
+// For each experiment, the samples are cut into segments of `segment_length` samples. The state
+// at the start of every segment, s_j, is a decision variable, as are the free model parameters
+// theta (scaled: the optimizer sees theta_i / scale_i). Inside segment j, starting at sample k_j,
+//     x_{k_j} = s_j,   x_{k+1} = Phi(x_k, u_k, theta)           (integrators.h: RK4, input held)
+//     r_k     = w o (h(x_k, u_k, theta) - y_k)                   (weighted output error)
+// and the continuity condition  Phi(x_{k_j + L - 1}, ...) - s_{j+1} = 0  joins the segments,
+// either as equality constraints (Ipopt) or as residuals weighted by `continuity_weight` (Ceres).
+// The objective is 1/2 sum_k |r_k|^2 over every sample of every experiment. With segment_length
+// equal to the record length this is single shooting; with 1 every sample is a node.
+//
+// Each segment is one NLP element (nlp.h): the simulation over L samples is unrolled
+// symbolically once, so the element's exact Jacobian and Hessian come from libexpr and the NLP is
+// assembled in time linear in the number of samples.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "graybox/estimators/nlp.h"
+#include "graybox/models/model.h"
+
+namespace graybox::estimators {
+
+/// The sampled data of one experiment, as the formulations need it.
+struct ExperimentData {
+  std::string name;
+  double dt = 0.0;    // sample time [s]
+  Eigen::MatrixXd u;  // N x nu, row k = u_k (held over [t_k, t_k+1))
+  Eigen::MatrixXd y;  // N x ny, row k = measured y_k
+  /// Initial state guess (nx). Shooting nodes are initialised by simulating from it with the
+  /// initial parameters, unless `state_guess` is given.
+  Eigen::VectorXd x0;
+  /// Optional N x nx state guess for the shooting nodes (e.g. measured positions and velocities).
+  Eigen::MatrixXd state_guess;
+};
+
+struct MultipleShootingOptions {
+  int segment_length = 20;  // samples per segment (>= 1)
+  int substeps = 1;         // RK4 substeps per sample
+  /// True: continuity as equality constraints (Ipopt). False: as weighted residuals (Ceres).
+  bool continuity_as_constraints = true;
+  /// Weight of the continuity residuals when they are residuals (relative to output residuals).
+  double continuity_weight = 100.0;
+  /// Weights w per output channel; empty means 1 / std(y_channel) over all experiments.
+  Eigen::VectorXd output_weights;
+  /// Keep the initial state of every experiment at x0 (not a decision variable).
+  bool fix_initial_state = false;
+  void Validate() const;
+};
+
+/// The NLP plus the map between decision variables and model quantities.
+struct ShootingProblem {
+  Nlp nlp;
+  /// Indices (into the model's parameter vector) of the free parameters, in variable order.
+  std::vector<int> free_parameters;
+  /// Scale of each free parameter: variable = parameter / scale.
+  Eigen::VectorXd scale;
+  /// Values of all model parameters (fixed ones stay at these).
+  Eigen::VectorXd parameter_values;
+  /// For each experiment, the variable index of each segment start state (segments x nx); -1 for
+  /// a fixed initial state.
+  std::vector<Eigen::MatrixXi> node_variables;
+  /// The weights used per output channel.
+  Eigen::VectorXd output_weights;
+
+  /// The full model parameter vector encoded by the decision vector w.
+  Eigen::VectorXd Parameters(const Eigen::VectorXd& w) const;
+  /// The initial state of experiment e encoded by w.
+  Eigen::VectorXd InitialState(const Eigen::VectorXd& w, int e) const;
+};
+
+/// Builds the NLP. Throws std::invalid_argument for inconsistent sizes (naming the experiment,
+/// expected versus got), non-finite data, infeasible parameter bounds, or no free parameter.
+ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
+                                      const std::vector<ExperimentData>& experiments,
+                                      const MultipleShootingOptions& options = {});
+
+}  // namespace graybox::estimators

@@ -1,0 +1,274 @@
+#include "graybox/estimators/multiple_shooting.h"
+
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <tuple>
+
+#include "graybox/estimators/integrators.h"
+
+namespace graybox::estimators {
+
+using expr::Expr;
+using expr::Function;
+
+void MultipleShootingOptions::Validate() const {
+  if (segment_length < 1) {
+    throw std::invalid_argument("MultipleShootingOptions.segment_length: expected >= 1, got " +
+                                std::to_string(segment_length));
+  }
+  if (substeps < 1) {
+    throw std::invalid_argument("MultipleShootingOptions.substeps: expected >= 1, got " +
+                                std::to_string(substeps));
+  }
+  if (!(continuity_weight > 0.0)) {
+    throw std::invalid_argument("MultipleShootingOptions.continuity_weight: expected > 0, got " +
+                                std::to_string(continuity_weight));
+  }
+}
+
+Eigen::VectorXd ShootingProblem::Parameters(const Eigen::VectorXd& w) const {
+  Eigen::VectorXd p = parameter_values;
+  for (std::size_t i = 0; i < free_parameters.size(); ++i) {
+    p[free_parameters[i]] = scale[static_cast<Eigen::Index>(i)] * w[static_cast<Eigen::Index>(i)];
+  }
+  return p;
+}
+
+Eigen::VectorXd ShootingProblem::InitialState(const Eigen::VectorXd& w, int e) const {
+  const Eigen::MatrixXi& nodes = node_variables.at(e);
+  Eigen::VectorXd x(nodes.cols());
+  for (Eigen::Index i = 0; i < nodes.cols(); ++i) {
+    x[i] = nodes(0, i) >= 0 ? w[nodes(0, i)] : std::nan("");
+  }
+  return x;
+}
+
+namespace {
+
+// Builds the element Function of one segment kind.
+Function SegmentFunction(const models::StateSpaceModel& model, const Function& step,
+                         const std::vector<int>& free, const Eigen::VectorXd& scale,
+                         const Eigen::VectorXd& values, const Eigen::VectorXd& weights, int length,
+                         bool start_fixed, bool has_next, bool continuity_as_constraints,
+                         double continuity_weight) {
+  const int nx = model.NumStates(), nu = model.NumInputs(), ny = model.NumOutputs();
+  const int nf = static_cast<int>(free.size());
+  std::vector<Expr> z = Expr::Symbols("theta", nf);
+  std::vector<Expr> p(values.size());
+  for (Eigen::Index i = 0; i < values.size(); ++i) p[i] = Expr(values[i]);
+  for (int i = 0; i < nf; ++i) p[free[i]] = scale[i] * z[i];
+  std::vector<Expr> d;
+  std::vector<Expr> s = Expr::Symbols("s", nx);
+  if (start_fixed) {
+    d.insert(d.end(), s.begin(), s.end());
+  } else {
+    z.insert(z.end(), s.begin(), s.end());
+  }
+  std::vector<Expr> s_next;
+  if (has_next) {
+    s_next = Expr::Symbols("s_next", nx);
+    z.insert(z.end(), s_next.begin(), s_next.end());
+  }
+  const std::vector<Expr> u = Expr::Symbols("u", length * nu);
+  const std::vector<Expr> y = Expr::Symbols("y", length * ny);
+  d.insert(d.end(), u.begin(), u.end());
+  d.insert(d.end(), y.begin(), y.end());
+  std::vector<Expr> r, c;
+  std::vector<Expr> x = s;
+  for (int k = 0; k < length; ++k) {
+    const std::vector<Expr> uk(u.begin() + k * nu, u.begin() + (k + 1) * nu);
+    const std::vector<Expr> yk = model.output.Call({x, uk, p})[0];
+    for (int j = 0; j < ny; ++j) r.push_back(weights[j] * (yk[j] - y[k * ny + j]));
+    if (k + 1 < length || has_next) x = step.Call({x, uk, p})[0];
+  }
+  if (has_next) {
+    for (int i = 0; i < nx; ++i) {
+      if (continuity_as_constraints) {
+        c.push_back(x[i] - s_next[i]);
+      } else {
+        r.push_back(continuity_weight * (x[i] - s_next[i]));
+      }
+    }
+  }
+  return Function("segment", {{"z", z}, {"d", d}}, {{"r", r}, {"c", c}});
+}
+
+}  // namespace
+
+ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
+                                      const std::vector<ExperimentData>& experiments,
+                                      const MultipleShootingOptions& options) {
+  options.Validate();
+  const int nx = model.NumStates(), nu = model.NumInputs(), ny = model.NumOutputs();
+  if (experiments.empty()) {
+    throw std::invalid_argument("BuildMultipleShooting: expected at least one experiment, got 0");
+  }
+  for (const auto& ex : experiments) {
+    const std::string where = "experiment '" + ex.name + "'";
+    if (!(ex.dt > 0.0)) {
+      throw std::invalid_argument(where + ": expected a sample time > 0, got " +
+                                  std::to_string(ex.dt));
+    }
+    if (ex.u.cols() != nu || ex.y.cols() != ny || ex.u.rows() != ex.y.rows() || ex.u.rows() < 1) {
+      throw std::invalid_argument(where + ": expected u of N x " + std::to_string(nu) +
+                                  " and y of N x " + std::to_string(ny) + " with N >= 1, got " +
+                                  std::to_string(ex.u.rows()) + "x" + std::to_string(ex.u.cols()) +
+                                  " and " + std::to_string(ex.y.rows()) + "x" +
+                                  std::to_string(ex.y.cols()));
+    }
+    if (!ex.u.allFinite() || !ex.y.allFinite()) {
+      throw std::invalid_argument(where + ": data contains NaN or Inf");
+    }
+    if (ex.x0.size() != nx || !ex.x0.allFinite()) {
+      throw std::invalid_argument(where + ": expected a finite initial state of size " +
+                                  std::to_string(nx) + ", got size " +
+                                  std::to_string(ex.x0.size()));
+    }
+    if (ex.state_guess.size() > 0 &&
+        (ex.state_guess.rows() != ex.u.rows() || ex.state_guess.cols() != nx)) {
+      throw std::invalid_argument(where + ": expected a state guess of " +
+                                  std::to_string(ex.u.rows()) + "x" + std::to_string(nx) +
+                                  ", got " + std::to_string(ex.state_guess.rows()) + "x" +
+                                  std::to_string(ex.state_guess.cols()));
+    }
+  }
+  // Free parameters and their scaling.
+  std::vector<int> free;
+  for (int i = 0; i < model.NumParameters(); ++i) {
+    if (model.parameters[i].free) free.push_back(i);
+  }
+  if (free.empty()) {
+    throw std::invalid_argument("BuildMultipleShooting: model '" + model.name +
+                                "' has no free parameter");
+  }
+  const int nf = static_cast<int>(free.size());
+  Eigen::VectorXd scale(nf);
+  for (int i = 0; i < nf; ++i) scale[i] = model.parameters[free[i]].scale;
+  const Eigen::VectorXd values = model.ParameterValues();
+  // Output weights: 1 / std per channel.
+  Eigen::VectorXd weights = options.output_weights;
+  if (weights.size() == 0) {
+    weights.resize(ny);
+    for (int j = 0; j < ny; ++j) {
+      double sum = 0, sum2 = 0;
+      long n = 0;
+      for (const auto& ex : experiments) {
+        sum += ex.y.col(j).sum();
+        sum2 += ex.y.col(j).squaredNorm();
+        n += ex.y.rows();
+      }
+      const double mean = sum / n;
+      const double var = std::max(0.0, sum2 / n - mean * mean);
+      weights[j] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
+    }
+  } else if (weights.size() != ny) {
+    throw std::invalid_argument("MultipleShootingOptions.output_weights: expected " +
+                                std::to_string(ny) + " entries, got " +
+                                std::to_string(weights.size()));
+  }
+  // Variables: theta (scaled), then the nodes of every experiment.
+  std::vector<double> w0, lbw, ubw;
+  std::vector<std::string> names;
+  for (int i = 0; i < nf; ++i) {
+    const auto& par = model.parameters[free[i]];
+    w0.push_back(par.value / scale[i]);
+    lbw.push_back(par.lower / scale[i]);
+    ubw.push_back(par.upper / scale[i]);
+    names.push_back(par.name);
+  }
+  const Function step = MakeRk4StepFunction(model, experiments[0].dt, options.substeps);
+  const int length = options.segment_length;
+  std::vector<Eigen::MatrixXi> node_variables;
+  struct Pending {
+    int experiment, start, len;
+    bool fixed, has_next;
+    int node;
+  };
+  std::vector<Pending> segments;
+  for (std::size_t e = 0; e < experiments.size(); ++e) {
+    const auto& ex = experiments[e];
+    if (std::fabs(ex.dt - experiments[0].dt) > 1e-12 * experiments[0].dt) {
+      throw std::invalid_argument("experiment '" + ex.name + "': expected the sample time " +
+                                  std::to_string(experiments[0].dt) +
+                                  " s of the first experiment, got " + std::to_string(ex.dt));
+    }
+    const int n = static_cast<int>(ex.u.rows());
+    const int num_segments = (n + length - 1) / length;
+    Eigen::MatrixXd guess = ex.state_guess;
+    if (guess.size() == 0)
+      guess = SimulateRk4(model, ex.x0, ex.u, values, ex.dt, options.substeps).x;
+    if (!guess.allFinite()) {
+      throw std::invalid_argument("experiment '" + ex.name +
+                                  "': the initial simulation diverges; give a state_guess");
+    }
+    Eigen::MatrixXi nodes = Eigen::MatrixXi::Constant(num_segments, nx, -1);
+    for (int j = 0; j < num_segments; ++j) {
+      const bool fixed = j == 0 && options.fix_initial_state;
+      for (int i = 0; i < nx && !fixed; ++i) {
+        nodes(j, i) = static_cast<int>(w0.size());
+        w0.push_back(j == 0 ? ex.x0[i] : guess(j * length, i));
+        lbw.push_back(-std::numeric_limits<double>::infinity());
+        ubw.push_back(std::numeric_limits<double>::infinity());
+        names.push_back(ex.name + ".s" + std::to_string(j) + "." + model.states[i].name);
+      }
+      const int start = j * length;
+      segments.push_back({static_cast<int>(e), start, std::min(length, n - start), fixed,
+                          j + 1 < num_segments, j});
+    }
+    node_variables.push_back(nodes);
+  }
+  ShootingProblem problem{
+      Nlp(Eigen::Map<Eigen::VectorXd>(w0.data(), static_cast<Eigen::Index>(w0.size())),
+          Eigen::Map<Eigen::VectorXd>(lbw.data(), static_cast<Eigen::Index>(lbw.size())),
+          Eigen::Map<Eigen::VectorXd>(ubw.data(), static_cast<Eigen::Index>(ubw.size())), names),
+      free,
+      scale,
+      values,
+      node_variables,
+      weights};
+  // One group per segment kind (length, fixed start, continuity).
+  std::map<std::tuple<int, bool, bool>, std::vector<const Pending*>> kinds;
+  for (const auto& s : segments) kinds[{s.len, s.fixed, s.has_next}].push_back(&s);
+  for (const auto& [kind, members] : kinds) {
+    const auto [len, fixed, has_next] = kind;
+    ElementGroup g;
+    g.name =
+        "segment_L" + std::to_string(len) + (fixed ? "_fixed" : "") + (has_next ? "" : "_last");
+    g.fn = SegmentFunction(model, step, free, scale, values, weights, len, fixed, has_next,
+                           options.continuity_as_constraints, options.continuity_weight);
+    const int nz = g.fn.InputSize(0), nd = g.fn.InputSize(1);
+    g.index.resize(nz, static_cast<Eigen::Index>(members.size()));
+    g.data.resize(nd, static_cast<Eigen::Index>(members.size()));
+    const int nc = g.fn.OutputSize(g.fn.OutputIndex("c"));
+    g.lbc = Eigen::VectorXd::Zero(nc);
+    g.ubc = Eigen::VectorXd::Zero(nc);
+    for (std::size_t m = 0; m < members.size(); ++m) {
+      const Pending& s = *members[m];
+      const auto& ex = experiments[s.experiment];
+      const Eigen::MatrixXi& nodes = node_variables[s.experiment];
+      int zi = 0;
+      for (int i = 0; i < nf; ++i) g.index(zi++, m) = i;
+      if (!s.fixed) {
+        for (int i = 0; i < nx; ++i) g.index(zi++, m) = nodes(s.node, i);
+      }
+      if (s.has_next) {
+        for (int i = 0; i < nx; ++i) g.index(zi++, m) = nodes(s.node + 1, i);
+      }
+      int di = 0;
+      if (s.fixed) {
+        for (int i = 0; i < nx; ++i) g.data(di++, m) = ex.x0[i];
+      }
+      for (int k = 0; k < s.len; ++k) {
+        for (int i = 0; i < nu; ++i) g.data(di++, m) = ex.u(s.start + k, i);
+      }
+      for (int k = 0; k < s.len; ++k) {
+        for (int i = 0; i < ny; ++i) g.data(di++, m) = ex.y(s.start + k, i);
+      }
+    }
+    problem.nlp.AddGroup(std::move(g));
+  }
+  return problem;
+}
+
+}  // namespace graybox::estimators

@@ -314,53 +314,80 @@ std::size_t CountNodes(const std::vector<Expr>& exprs) {
 }
 
 namespace {
-void Render(const Node* n, std::ostream& os) {
-  switch (n->op) {
-    case Op::kConstant:
-      os << n->value;
-      return;
-    case Op::kSymbol:
-      os << n->name;
-      return;
-    case Op::kAdd:
-    case Op::kSub:
-    case Op::kMul:
-    case Op::kDiv:
-    case Op::kLt:
-    case Op::kLe:
-    case Op::kEq:
-    case Op::kNe:
-    case Op::kAnd:
-    case Op::kOr:
-      os << '(';
-      Render(n->args[0].get(), os);
-      os << OpName(n->op);
-      Render(n->args[1].get(), os);
-      os << ')';
-      return;
-    case Op::kNeg:
-      os << "(-";
-      Render(n->args[0].get(), os);
-      os << ')';
-      return;
-    default: {
-      os << OpName(n->op) << '(';
-      for (int i = 0; i < Arity(n->op); ++i) {
-        if (i) os << ", ";
-        Render(n->args[i].get(), os);
+
+// Rendering stops after this many characters (see Expr::ToString).
+constexpr std::size_t kMaxRenderedChars = 65536;
+
+// Iterative, so any depth renders without recursion, and bounded, so a DAG whose expansion is
+// exponential (e = e*e repeated) stops early. A work item is a node to render or a fixed text.
+std::string Render(const Node* root) {
+  struct Item {
+    const Node* node;
+    const char* text;
+  };
+  std::vector<Item> stack{{root, nullptr}};
+  std::string out;
+  std::ostringstream number;
+  number.precision(17);
+  while (!stack.empty()) {
+    if (out.size() > kMaxRenderedChars) {
+      out += "...";
+      break;
+    }
+    const Item item = stack.back();
+    stack.pop_back();
+    if (item.text != nullptr) {
+      out += item.text;
+      continue;
+    }
+    const Node* n = item.node;
+    switch (n->op) {
+      case Op::kConstant:
+        number.str("");
+        number << n->value;
+        out += number.str();
+        break;
+      case Op::kSymbol:
+        out += n->name;
+        break;
+      case Op::kAdd:
+      case Op::kSub:
+      case Op::kMul:
+      case Op::kDiv:
+      case Op::kLt:
+      case Op::kLe:
+      case Op::kEq:
+      case Op::kNe:
+      case Op::kAnd:
+      case Op::kOr:  // (a op b)
+        out += '(';
+        stack.push_back({nullptr, ")"});
+        stack.push_back({n->args[1].get(), nullptr});
+        stack.push_back({nullptr, OpName(n->op)});
+        stack.push_back({n->args[0].get(), nullptr});
+        break;
+      case Op::kNeg:  // (-a)
+        out += "(-";
+        stack.push_back({nullptr, ")"});
+        stack.push_back({n->args[0].get(), nullptr});
+        break;
+      default: {  // name(a, b, ...)
+        out += OpName(n->op);
+        out += '(';
+        stack.push_back({nullptr, ")"});
+        for (int i = Arity(n->op) - 1; i >= 0; --i) {
+          stack.push_back({n->args[i].get(), nullptr});
+          if (i > 0) stack.push_back({nullptr, ", "});
+        }
       }
-      os << ')';
     }
   }
+  return out;
 }
+
 }  // namespace
 
-std::string Expr::ToString() const {
-  std::ostringstream os;
-  os.precision(17);
-  Render(node(), os);
-  return os.str();
-}
+std::string Expr::ToString() const { return Render(node()); }
 
 std::ostream& operator<<(std::ostream& os, const Expr& e) { return os << e.ToString(); }
 

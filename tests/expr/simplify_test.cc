@@ -315,6 +315,8 @@ TEST(FreeSymbols, DistinctSymbolsInOrderOfFirstAppearance) {
 // Deep enough to overflow any recursive traversal (a few hundred bytes per frame on an 8 MB
 // stack), small enough for the sanitizer build.
 constexpr int kDeepChain = 200000;
+// ToString() is documented to stop after 65536 characters; a message adds a short prefix.
+constexpr std::size_t kMaxRenderedMessage = 65536 + 200;
 // Steps of a chain p <- sin(p)/2 + x: its derivative is about three nodes deep per step.
 constexpr int kDeepProductChain = 50000;
 
@@ -343,10 +345,43 @@ TEST(DeepGraph, LongChainBuildsEvaluatesDifferentiatesAndDestroys) {
   const Function df("df", {{"x", {x}}}, {{"d", d[0]}});
   // The chain is a contraction (|slope| <= 1/2 per step), so its derivative stays finite.
   EXPECT_TRUE(std::isfinite(df({Eigen::VectorXd::Constant(1, 0.3)})[0][0]));
+  // Error messages render the expression: they must neither recurse nor grow without bound.
+  try {
+    e.Value();
+    ADD_FAILURE() << "Value() of a non-constant must throw";
+  } catch (const std::logic_error& err) {
+    const std::string what = err.what();
+    EXPECT_LE(what.size(), kMaxRenderedMessage);
+    EXPECT_EQ(what.substr(what.size() - 3), "...");
+  }
+  ExpectThrowsWith<std::invalid_argument>(
+      [&] {
+        Function("f", {{"x", {x, e}}}, {{"y", {x}}});
+      },
+      {"input 'x'[1]: expected a symbol, got (1+(1+(1+(1+"});
   // Destruction of both chains (and of the derivative) must not recurse.
   e = Expr();
   p = Expr();
   EXPECT_TRUE(e.IsZero());
+}
+
+TEST(DeepGraph, RenderingADoublingDagIsBounded) {
+  // 101 nodes whose full expansion has 2^100 leaves: rendering must stop, not expand them all.
+  const Expr x = Expr::Symbol("x");
+  Expr e = x;
+  for (int k = 0; k < 100; ++k) e = e * e;
+  EXPECT_EQ(e.CountNodes(), 101u);
+  const std::string s = e.ToString();
+  EXPECT_LE(s.size(), kMaxRenderedMessage);
+  EXPECT_EQ(s.substr(0, 6), "((((((");
+  EXPECT_EQ(s.substr(s.size() - 3), "...");
+  ExpectThrowsWith<std::invalid_argument>([&] { Substitute({x}, {e}, {x}); },
+                                          {"expected a symbol at position 0"});
+  // Small expressions are rendered completely, every operation form included.
+  const Expr y = Expr::Symbol("y");
+  EXPECT_EQ((-(x - y)).ToString(), "(-(x-y))");
+  EXPECT_EQ(if_else(lt(x, 2.5), atan2(y, x), sqrt(x)).ToString(),
+            "if_else((x<2.5), atan2(y, x), sqrt(x))");
 }
 
 }  // namespace

@@ -139,7 +139,9 @@ void ExpectThrowsWith(const std::function<void()>& fn, const std::vector<std::st
   } catch (const E& e) {
     const std::string what = e.what();
     for (const std::string& p : parts) {
-      EXPECT_NE(what.find(p), std::string::npos) << "message '" << what << "' lacks '" << p << "'";
+      EXPECT_NE(what.find(p), std::string::npos)
+          << "message '" << what.substr(0, 300) << (what.size() > 300 ? "..." : "") << "' lacks '"
+          << p << "'";
     }
   } catch (const std::exception& e) {
     ADD_FAILURE() << "wrong exception type, message: " << e.what();

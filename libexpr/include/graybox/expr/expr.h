@@ -74,6 +74,7 @@ class Expr {
   /// Number of distinct nodes reachable from this expression (itself included).
   std::size_t CountNodes() const;
   /// Infix rendering with shared subexpressions expanded (for small expressions and messages).
+  /// Safe on any graph: it does not recurse, and stops with "..." after 65536 characters.
   std::string ToString() const;
 
   Expr& operator+=(const Expr& b);

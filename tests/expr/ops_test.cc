@@ -543,6 +543,23 @@ TEST(NonSmoothConventions, IfElseDifferentiatesTheTakenBranch) {
   EXPECT_EQ(GradientAt(piecewise, {x}, {2.0})[0], 1.0);
 }
 
+TEST(NonSmoothConventions, GuardedIfElseKeepsTheUntakenBranchFinite) {
+  // The idiom documented in ops.h: guard the argument of a branch that is invalid where it is
+  // not taken, so its partials stay finite there too.
+  const Expr x = Expr::Symbol("x");
+  const Expr positive = gt(x, 0.0);
+  const Expr e = if_else(positive, sqrt(if_else(positive, x, 1.0)), 0.0);
+  const Function f("f", {{"x", {x}}}, {{"y", {e}}});
+  for (double v : {-1.0, 0.0, 4.0}) {
+    SCOPED_TRACE(v);
+    const std::vector<Eigen::VectorXd> point = {Eigen::VectorXd::Constant(1, v)};
+    // operator() throws NonFiniteError on NaN, so these also assert finiteness.
+    EXPECT_EQ(f.Gradient("y", "x")(point)[0][0], v > 0 ? 0.25 : 0.0);
+    EXPECT_EQ(f.Hessian("y", "x")(point)[0][0], v > 0 ? -1.0 / 32.0 : 0.0);
+    EXPECT_EQ(f.Forward(1)({point[0], Eigen::VectorXd::Ones(1)})[0][0], v > 0 ? 0.25 : 0.0);
+  }
+}
+
 TEST(NonSmoothConventions, PowWithConstantExponentHasNoLogTerm) {
   // d/dy = log(x) x^y is only formed for a symbolic exponent, so a negative base is fine.
   const Expr x = Expr::Symbol("x");

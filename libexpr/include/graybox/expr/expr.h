@@ -151,7 +151,8 @@ Expr ne(const Expr& a, const Expr& b);
 Expr logical_and(const Expr& a, const Expr& b);
 Expr logical_or(const Expr& a, const Expr& b);
 Expr logical_not(const Expr& a);
-/// a when c != 0, else b. Only the taken branch contributes to derivatives (see ops.h).
+/// a when c != 0, else b. Only the taken branch contributes to derivatives, but a non-finite
+/// partial in the untaken branch still propagates as 0 * NaN: see ops.h for the guard idiom.
 Expr if_else(const Expr& c, const Expr& a, const Expr& b);
 
 /// Replaces every occurrence of symbols `from[i]` by `to[i]` in `exprs` (sizes must match; every

@@ -11,6 +11,9 @@
 //   min(a, b)     the partial goes to a when a <= b, else to b (ties pick the first argument).
 //   max(a, b)     the partial goes to a when a >= b, else to b (ties pick the first argument).
 //   if_else(c,a,b) d/da = (c != 0), d/db = (c == 0), d/dc = 0: the derivative of the branch taken.
+//                 The untaken branch is multiplied by 0, so a NaN/Inf partial inside it still
+//                 propagates (0 * NaN = NaN): guard its argument too, e.g.
+//                 if_else(x > 0, sqrt(if_else(x > 0, x, 1)), 0) has derivative 0 at x < 0.
 //   comparisons and logical operations have zero derivative.
 //   pow(x, y)     d/dx = y*x^(y-1); d/dy = log(x)*x^y, only formed when y depends on an input.
 #pragma once

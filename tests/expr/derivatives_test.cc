@@ -264,6 +264,33 @@ TEST(JacobianStructure, BandedJacobianNeedsThreeColours) {
   EXPECT_TRUE(r.ok) << r.FullReport();
 }
 
+TEST(JacobianStructure, DetectionIsExactAcrossInputBlocks) {
+  // Dependencies are propagated 256 input columns at a time: couple columns far apart.
+  constexpr int n = 700;
+  const std::vector<Expr> x = Expr::Symbols("x", n);
+  std::vector<Expr> y;
+  std::vector<std::pair<int, int>> expected;
+  for (int i = 0; i < n; ++i) {
+    const int far = (i * 263 + 5) % n;
+    y.push_back(i == far ? exp(x[i]) : x[i] * sin(x[far]));
+    expected.push_back({i, i});
+    expected.push_back({i, far});
+  }
+  const Function f("far", {{"x", x}}, {{"y", y}});
+  EXPECT_EQ(f.JacobianSparsity("y", "x"), Sparsity::FromTriplets(n, n, expected));
+  std::mt19937 rng = testing::SeededRng(kSeed);
+  const std::vector<Eigen::VectorXd> point = {RandomVector(&rng, n, -1, 1)};
+  const Function j = f.Jacobian("y", "x");
+  const Eigen::VectorXd nz = j(point)[0];
+  const Sparsity& sp = j.OutputSparsity(0);
+  for (int i = 0; i < n; ++i) {
+    const int far = (i * 263 + 5) % n;
+    if (i == far) continue;
+    EXPECT_EQ(nz[sp.Find(i, i)], std::sin(point[0][far]));
+    EXPECT_EQ(nz[sp.Find(i, far)], point[0][i] * std::cos(point[0][far]));
+  }
+}
+
 TEST(JacobianStructure, BlockDiagonalAndConditionsCarryNoDependence) {
   // Three 2x2 blocks; the condition of an if_else and a comparison add no dependence.
   const std::vector<Expr> x = Expr::Symbols("x", 6);
@@ -318,6 +345,49 @@ TEST(HessianStructure, ChainedRosenbrockIsTridiagonal) {
   fd.tolerance = kFiniteDifferenceTol;
   const DerivativeCheckResult r = CheckHessian(fn, "f", "x", {RandomVector(&rng, n, -1, 1)}, fd);
   EXPECT_TRUE(r.ok) << r.FullReport();
+}
+
+TEST(HessianStructure, ArrowheadHessianIsRecoveredExactly) {
+  // A parameter coupled to every state: column colouring needs n colours, a star colouring 2,
+  // so the symmetric recovery path is used. Every entry must still be right.
+  constexpr int n = 25;
+  const std::vector<Expr> x = Expr::Symbols("x", n);
+  Expr f = 0.0;
+  for (int i = 1; i < n; ++i) f = f + x[0] * x[i] * x[i] + pow(x[i], 3.0) + sin(x[0] * x[i]);
+  const Function fn("arrow", {{"x", x}}, {{"f", {f}}});
+  const Function h = fn.Hessian("f", "x");
+  std::vector<std::pair<int, int>> arrow;
+  for (int i = 0; i < n; ++i) {
+    arrow.push_back({i, i});
+    if (i > 0) {
+      arrow.push_back({0, i});
+      arrow.push_back({i, 0});
+    }
+  }
+  EXPECT_EQ(h.OutputSparsity(0), Sparsity::FromTriplets(n, n, arrow));
+  std::mt19937 rng = testing::SeededRng(kSeed);
+  const std::vector<Eigen::VectorXd> point = {RandomVector(&rng, n, -1, 1)};
+  const Eigen::MatrixXd hd = Densify(h.OutputSparsity(0), h(point)[0]);
+  const Eigen::VectorXd& v = point[0];
+  for (int i = 1; i < n; ++i) {
+    // d2f/dx0dxi = 2 xi + cos(x0 xi) - x0 xi sin(x0 xi); d2f/dxi2 = 2 x0 + 6 xi - x0^2 sin(x0 xi)
+    const double s = std::sin(v[0] * v[i]), c = std::cos(v[0] * v[i]);
+    const double mixed = 2 * v[i] + c - v[0] * v[i] * s;
+    const double diag = 2 * v[0] + 6 * v[i] - v[0] * v[0] * s;
+    EXPECT_LE(std::fabs(hd(0, i) - mixed), kModeAgreementTol * std::max(1.0, std::fabs(mixed)));
+    EXPECT_LE(std::fabs(hd(i, 0) - mixed), kModeAgreementTol * std::max(1.0, std::fabs(mixed)));
+    EXPECT_LE(std::fabs(hd(i, i) - diag), kModeAgreementTol * std::max(1.0, std::fabs(diag)));
+  }
+  DerivativeCheckOptions fd;
+  fd.tolerance = kFiniteDifferenceTol;
+  const DerivativeCheckResult r = CheckHessian(fn, "f", "x", point, fd);
+  EXPECT_TRUE(r.ok) << r.FullReport();
+  // The Lagrangian Hessian of the same objective is its lower triangle.
+  const Function hl = HessianOfLagrangian(fn, "x", "f", "");
+  EXPECT_EQ(hl.OutputSparsity(0), h.OutputSparsity(0).LowerTriangle());
+  const Eigen::MatrixXd lower =
+      Densify(hl.OutputSparsity(0), hl({point[0], Eigen::VectorXd::Ones(1), Eigen::VectorXd()})[0]);
+  EXPECT_LE(RelError(lower, Eigen::MatrixXd(hd.triangularView<Eigen::Lower>())), kModeAgreementTol);
 }
 
 TEST(HessianStructure, BlockDiagonalHessian) {

@@ -27,14 +27,6 @@ void MultipleShootingOptions::Validate() const {
   }
 }
 
-Eigen::VectorXd ShootingProblem::Parameters(const Eigen::VectorXd& w) const {
-  Eigen::VectorXd p = parameter_values;
-  for (std::size_t i = 0; i < free_parameters.size(); ++i) {
-    p[free_parameters[i]] = scale[static_cast<Eigen::Index>(i)] * w[static_cast<Eigen::Index>(i)];
-  }
-  return p;
-}
-
 Eigen::VectorXd ShootingProblem::InitialState(const Eigen::VectorXd& w, int e) const {
   const Eigen::MatrixXi& nodes = node_variables.at(e);
   Eigen::VectorXd x(nodes.cols());
@@ -133,19 +125,11 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
                                   std::to_string(ex.state_guess.cols()));
     }
   }
-  // Free parameters and their scaling.
-  std::vector<int> free;
-  for (int i = 0; i < model.NumParameters(); ++i) {
-    if (model.parameters[i].free) free.push_back(i);
-  }
-  if (free.empty()) {
-    throw std::invalid_argument("BuildMultipleShooting: model '" + model.name +
-                                "' has no free parameter");
-  }
-  const int nf = static_cast<int>(free.size());
-  Eigen::VectorXd scale(nf);
-  for (int i = 0; i < nf; ++i) scale[i] = model.parameters[free[i]].scale;
-  const Eigen::VectorXd values = model.ParameterValues();
+  const ParameterMap map = ParameterMap::FromModel(model.parameters);
+  const std::vector<int>& free = map.free;
+  const int nf = map.NumFree();
+  const Eigen::VectorXd& scale = map.scale;
+  const Eigen::VectorXd& values = map.values;
   // Output weights: 1 / std per channel.
   Eigen::VectorXd weights = options.output_weights;
   if (weights.size() == 0) {
@@ -170,13 +154,7 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
   // Variables: theta (scaled), then the nodes of every experiment.
   std::vector<double> w0, lbw, ubw;
   std::vector<std::string> names;
-  for (int i = 0; i < nf; ++i) {
-    const auto& par = model.parameters[free[i]];
-    w0.push_back(par.value / scale[i]);
-    lbw.push_back(par.lower / scale[i]);
-    ubw.push_back(par.upper / scale[i]);
-    names.push_back(par.name);
-  }
+  map.AppendVariables(&w0, &lbw, &ubw, &names);
   const Function step = MakeRk4StepFunction(model, experiments[0].dt, options.substeps);
   const int length = options.segment_length;
   std::vector<Eigen::MatrixXi> node_variables;
@@ -222,11 +200,7 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
       Nlp(Eigen::Map<Eigen::VectorXd>(w0.data(), static_cast<Eigen::Index>(w0.size())),
           Eigen::Map<Eigen::VectorXd>(lbw.data(), static_cast<Eigen::Index>(lbw.size())),
           Eigen::Map<Eigen::VectorXd>(ubw.data(), static_cast<Eigen::Index>(ubw.size())), names),
-      free,
-      scale,
-      values,
-      node_variables,
-      weights};
+      map, node_variables, weights};
   // One group per segment kind (length, fixed start, continuity).
   std::map<std::tuple<int, bool, bool>, std::vector<const Pending*>> kinds;
   for (const auto& s : segments) kinds[{s.len, s.fixed, s.has_next}].push_back(&s);

@@ -21,6 +21,7 @@
 #include <Eigen/Core>
 
 #include "graybox/estimators/nlp.h"
+#include "graybox/estimators/parameter_map.h"
 #include "graybox/models/model.h"
 
 namespace graybox::estimators {
@@ -55,12 +56,8 @@ struct MultipleShootingOptions {
 /// The NLP plus the map between decision variables and model quantities.
 struct ShootingProblem {
   Nlp nlp;
-  /// Indices (into the model's parameter vector) of the free parameters, in variable order.
-  std::vector<int> free_parameters;
-  /// Scale of each free parameter: variable = parameter / scale.
-  Eigen::VectorXd scale;
-  /// Values of all model parameters (fixed ones stay at these).
-  Eigen::VectorXd parameter_values;
+  /// The free model parameters are the first variables of the NLP.
+  ParameterMap parameters;
   /// For each experiment, the variable index of each segment start state (segments x nx); -1 for
   /// a fixed initial state.
   std::vector<Eigen::MatrixXi> node_variables;
@@ -68,7 +65,7 @@ struct ShootingProblem {
   Eigen::VectorXd output_weights;
 
   /// The full model parameter vector encoded by the decision vector w.
-  Eigen::VectorXd Parameters(const Eigen::VectorXd& w) const;
+  Eigen::VectorXd Parameters(const Eigen::VectorXd& w) const { return parameters.Values(w); }
   /// The initial state of experiment e encoded by w.
   Eigen::VectorXd InitialState(const Eigen::VectorXd& w, int e) const;
 };

@@ -1,0 +1,183 @@
+#include "graybox/estimators/equation_error.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace graybox::estimators {
+
+using expr::Expr;
+using expr::Function;
+
+namespace {
+
+// Weights 1 / std of each column of the stacked targets (1 for a constant column).
+Eigen::VectorXd StdWeights(const std::vector<const Eigen::MatrixXd*>& targets, int n) {
+  Eigen::VectorXd w(n);
+  for (int j = 0; j < n; ++j) {
+    double sum = 0, sum2 = 0;
+    long count = 0;
+    for (const auto* t : targets) {
+      sum += t->col(j).sum();
+      sum2 += t->col(j).squaredNorm();
+      count += t->rows();
+    }
+    const double mean = sum / std::max<long>(count, 1);
+    const double var = std::max(0.0, sum2 / std::max<long>(count, 1) - mean * mean);
+    w[j] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
+  }
+  return w;
+}
+
+// The free parameters as scaled symbols z, spliced into the full parameter vector.
+std::vector<Expr> ParameterExprs(const ParameterMap& map, std::vector<Expr>* z) {
+  *z = Expr::Symbols("theta", map.NumFree());
+  std::vector<Expr> p(map.values.size());
+  for (Eigen::Index i = 0; i < map.values.size(); ++i) p[i] = Expr(map.values[i]);
+  for (int i = 0; i < map.NumFree(); ++i) p[map.free[i]] = map.scale[i] * (*z)[i];
+  return p;
+}
+
+Nlp VariablesOf(const ParameterMap& map) {
+  std::vector<double> w0, lb, ub;
+  std::vector<std::string> names;
+  map.AppendVariables(&w0, &lb, &ub, &names);
+  auto vec = [](std::vector<double>& v) {
+    return Eigen::VectorXd(
+        Eigen::Map<Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+  };
+  return Nlp(vec(w0), vec(lb), vec(ub), names);
+}
+
+}  // namespace
+
+EquationErrorProblem BuildInverseDynamicsEquationError(
+    const Function& inverse_dynamics, const std::vector<models::ModelParameter>& parameters,
+    const std::vector<InverseDynamicsData>& data, Eigen::VectorXd weights) {
+  const int n = inverse_dynamics.InputSize(inverse_dynamics.InputIndex("q"));
+  const int np = inverse_dynamics.InputSize(inverse_dynamics.InputIndex("p"));
+  if (np != static_cast<int>(parameters.size())) {
+    throw std::invalid_argument("BuildInverseDynamicsEquationError: expected " +
+                                std::to_string(np) + " parameter descriptions, got " +
+                                std::to_string(parameters.size()));
+  }
+  std::vector<const Eigen::MatrixXd*> taus;
+  for (std::size_t e = 0; e < data.size(); ++e) {
+    const auto& d = data[e];
+    const Eigen::Index rows = d.q.rows();
+    for (const auto* m : {&d.q, &d.qd, &d.qdd, &d.tau}) {
+      if (m->rows() != rows || m->cols() != n) {
+        throw std::invalid_argument("equation-error data set " + std::to_string(e) +
+                                    ": expected q, qd, qdd and tau of " + std::to_string(rows) +
+                                    "x" + std::to_string(n) + ", got " + std::to_string(m->rows()) +
+                                    "x" + std::to_string(m->cols()));
+      }
+      if (!m->allFinite()) {
+        throw std::invalid_argument("equation-error data set " + std::to_string(e) +
+                                    ": data contains NaN or Inf");
+      }
+    }
+    taus.push_back(&d.tau);
+  }
+  if (weights.size() == 0) weights = StdWeights(taus, n);
+  if (weights.size() != n) {
+    throw std::invalid_argument("BuildInverseDynamicsEquationError: expected " + std::to_string(n) +
+                                " weights, got " + std::to_string(weights.size()));
+  }
+  const ParameterMap map = ParameterMap::FromModel(parameters);
+  EquationErrorProblem problem{VariablesOf(map), map, weights};
+  std::vector<Expr> z;
+  const std::vector<Expr> p = ParameterExprs(map, &z);
+  const std::vector<Expr> q = Expr::Symbols("q", n), qd = Expr::Symbols("qd", n),
+                          qdd = Expr::Symbols("qdd", n), tau = Expr::Symbols("tau", n);
+  const std::vector<Expr> model_tau = inverse_dynamics.Call({q, qd, qdd, p})[0];
+  std::vector<Expr> d, r;
+  for (const auto* v : {&q, &qd, &qdd, &tau}) d.insert(d.end(), v->begin(), v->end());
+  for (int j = 0; j < n; ++j) r.push_back(weights[j] * (model_tau[j] - tau[j]));
+  const Function element("idim_sample", {{"z", z}, {"d", d}}, {{"r", r}});
+  long total = 0;
+  for (const auto& dd : data) total += dd.q.rows();
+  ElementGroup g;
+  g.name = "idim";
+  g.fn = element;
+  g.index.resize(map.NumFree(), total);
+  g.data.resize(4 * n, total);
+  long col = 0;
+  for (const auto& dd : data) {
+    for (Eigen::Index k = 0; k < dd.q.rows(); ++k, ++col) {
+      for (int i = 0; i < map.NumFree(); ++i) g.index(i, col) = i;
+      g.data.col(col) << dd.q.row(k).transpose(), dd.qd.row(k).transpose(),
+          dd.qdd.row(k).transpose(), dd.tau.row(k).transpose();
+    }
+  }
+  g.lbc.resize(0);
+  g.ubc.resize(0);
+  problem.nlp.AddGroup(std::move(g));
+  return problem;
+}
+
+EquationErrorProblem BuildStateEquationError(const models::StateSpaceModel& model,
+                                             const std::vector<StateDerivativeData>& data,
+                                             const std::vector<int>& components,
+                                             Eigen::VectorXd weights) {
+  const int nx = model.NumStates(), nu = model.NumInputs();
+  const int nc = static_cast<int>(components.size());
+  for (int c : components) {
+    if (c < 0 || c >= nx) {
+      throw std::invalid_argument("BuildStateEquationError: expected state components in [0, " +
+                                  std::to_string(nx) + "), got " + std::to_string(c));
+    }
+  }
+  std::vector<Eigen::MatrixXd> selected;
+  for (std::size_t e = 0; e < data.size(); ++e) {
+    const auto& d = data[e];
+    if (d.x.cols() != nx || d.xdot.cols() != nx || d.u.cols() != nu || d.u.rows() != d.x.rows() ||
+        d.xdot.rows() != d.x.rows()) {
+      throw std::invalid_argument("state equation-error data set " + std::to_string(e) +
+                                  ": expected x and xdot with " + std::to_string(nx) +
+                                  " columns and u with " + std::to_string(nu) +
+                                  ", all with the same rows");
+    }
+    if (!d.x.allFinite() || !d.u.allFinite() || !d.xdot.allFinite()) {
+      throw std::invalid_argument("state equation-error data set " + std::to_string(e) +
+                                  ": data contains NaN or Inf");
+    }
+    Eigen::MatrixXd s(d.xdot.rows(), nc);
+    for (int i = 0; i < nc; ++i) s.col(i) = d.xdot.col(components[i]);
+    selected.push_back(s);
+  }
+  std::vector<const Eigen::MatrixXd*> targets;
+  for (const auto& s : selected) targets.push_back(&s);
+  if (weights.size() == 0) weights = StdWeights(targets, nc);
+  const ParameterMap map = ParameterMap::FromModel(model.parameters);
+  EquationErrorProblem problem{VariablesOf(map), map, weights};
+  std::vector<Expr> z;
+  const std::vector<Expr> p = ParameterExprs(map, &z);
+  const std::vector<Expr> x = Expr::Symbols("x", nx), u = Expr::Symbols("u", nu),
+                          xdot = Expr::Symbols("xdot", nc);
+  const std::vector<Expr> f = model.dynamics.Call({x, u, p})[0];
+  std::vector<Expr> d(x), r;
+  d.insert(d.end(), u.begin(), u.end());
+  d.insert(d.end(), xdot.begin(), xdot.end());
+  for (int i = 0; i < nc; ++i) r.push_back(weights[i] * (f[components[i]] - xdot[i]));
+  ElementGroup g;
+  g.name = "state_equation";
+  g.fn = Function("state_equation_sample", {{"z", z}, {"d", d}}, {{"r", r}});
+  long total = 0;
+  for (const auto& dd : data) total += dd.x.rows();
+  g.index.resize(map.NumFree(), total);
+  g.data.resize(nx + nu + nc, total);
+  long col = 0;
+  for (std::size_t e = 0; e < data.size(); ++e) {
+    for (Eigen::Index k = 0; k < data[e].x.rows(); ++k, ++col) {
+      for (int i = 0; i < map.NumFree(); ++i) g.index(i, col) = i;
+      g.data.col(col) << data[e].x.row(k).transpose(), data[e].u.row(k).transpose(),
+          selected[e].row(k).transpose();
+    }
+  }
+  g.lbc.resize(0);
+  g.ubc.resize(0);
+  problem.nlp.AddGroup(std::move(g));
+  return problem;
+}
+
+}  // namespace graybox::estimators

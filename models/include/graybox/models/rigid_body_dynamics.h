@@ -191,15 +191,24 @@ struct ChainBodies<double> {
   static const BodyParameterArray<double>& Get(const SerialChain& chain) { return chain.bodies(); }
 };
 
-// Recursive Newton-Euler with switches for the velocity, acceleration and gravity terms (a term
-// that is switched off is skipped, not evaluated on zeros).
+// The outward pass of the recursive Newton-Euler algorithm: the pose of every joint frame {J_i} in
+// its parent and the angular velocity w_i, angular acceleration dw_i and origin acceleration a_i of
+// {J_i}, in {J_i} axes (gravity included as the base acceleration -gravity when `with_gravity`).
+// A null qd or qdd switches the velocity or acceleration terms off (they are skipped, not
+// evaluated on zeros). Shared by the inverse dynamics and the regressor (regressor.h).
 template <typename Scalar>
-JointVector<Scalar> Rnea(const SerialChain& chain, const BodyParameterArray<Scalar>& bodies,
-                         const JointVector<Scalar>& q, const JointVector<Scalar>* qd,
-                         const JointVector<Scalar>* qdd, bool with_gravity) {
-  const int n = chain.dof();
+struct RneaKinematics {
   std::array<JointPose<Scalar>, kMaxDof> pose;
   std::array<Vector3<Scalar>, kMaxDof> w, dw, acc;
+};
+
+template <typename Scalar>
+void RneaForwardPass(const SerialChain& chain, const JointVector<Scalar>& q,
+                     const JointVector<Scalar>* qd, const JointVector<Scalar>* qdd,
+                     bool with_gravity, RneaKinematics<Scalar>* kin) {
+  const int n = chain.dof();
+  std::array<JointPose<Scalar>, kMaxDof>& pose = kin->pose;
+  std::array<Vector3<Scalar>, kMaxDof>&w = kin->w, &dw = kin->dw, &acc = kin->acc;
   Vector3<Scalar> w_prev = Zero3<Scalar>(), dw_prev = Zero3<Scalar>(), a_prev = Zero3<Scalar>();
   if (with_gravity) {
     for (int k = 0; k < 3; ++k) a_prev[k] = Scalar(-chain.gravity()[k]);
@@ -238,6 +247,19 @@ JointVector<Scalar> Rnea(const SerialChain& chain, const BodyParameterArray<Scal
     dw_prev = dwi;
     a_prev = ai;
   }
+}
+
+// Recursive Newton-Euler with switches for the velocity, acceleration and gravity terms (a term
+// that is switched off is skipped, not evaluated on zeros).
+template <typename Scalar>
+JointVector<Scalar> Rnea(const SerialChain& chain, const BodyParameterArray<Scalar>& bodies,
+                         const JointVector<Scalar>& q, const JointVector<Scalar>* qd,
+                         const JointVector<Scalar>* qdd, bool with_gravity) {
+  const int n = chain.dof();
+  RneaKinematics<Scalar> kin;
+  RneaForwardPass(chain, q, qd, qdd, with_gravity, &kin);
+  const std::array<JointPose<Scalar>, kMaxDof>& pose = kin.pose;
+  const std::array<Vector3<Scalar>, kMaxDof>&w = kin.w, &dw = kin.dw, &acc = kin.acc;
   JointVector<Scalar> tau(n);
   Vector3<Scalar> f_child = Zero3<Scalar>(), n_child = Zero3<Scalar>();  // in the current frame
   for (int i = n - 1; i >= 0; --i) {

@@ -8,6 +8,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterPneumaticBlocks(registry);
   RegisterNetworkBlocks(registry);
   RegisterRobotBlocks(registry);
+  RegisterMechanicsBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

@@ -13,5 +13,6 @@ void RegisterDriveBlocks(BlockRegistry& registry);      // src/drive_blocks.cc
 void RegisterPneumaticBlocks(BlockRegistry& registry);  // src/pneumatic_blocks.cc
 void RegisterNetworkBlocks(BlockRegistry& registry);    // src/network_blocks.cc
 void RegisterRobotBlocks(BlockRegistry& registry);      // src/robot_blocks.cc
+void RegisterMechanicsBlocks(BlockRegistry& registry);  // src/mechanics_blocks.cc
 
 }  // namespace graybox::models::internal

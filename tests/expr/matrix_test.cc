@@ -132,6 +132,33 @@ TEST(ExprMatrix, LargeDynamicProductsGoThroughEigenKernels) {
   EXPECT_EQ(f.JacobianSparsity("atv", "v").nnz(), n * n);
 }
 
+TEST(ExprMatrix, FixedSizeOperationsMatchDoubles) {
+  // Eigen's fixed-size kernels (cross, norm, trace, determinant, inverse) instantiated on Expr.
+  using M3 = Eigen::Matrix<Expr, 3, 3>;
+  using V3 = Eigen::Matrix<Expr, 3, 1>;
+  const ExprMatrix ms = SymbolMatrix("m", 3, 3);
+  const M3 m = ms;
+  const V3 a = SymbolVector("a", 3), b = SymbolVector("b", 3);
+  const V3 cross = a.cross(b);
+  const M3 inv = (m + 4.0 * M3::Identity()).inverse();
+  const Function f("fixed", {{"m", Flatten(ms)}, {"a", ToStdVector(a)}, {"b", ToStdVector(b)}},
+                   {{"cross", ToStdVector(cross)},
+                    {"scalars", {a.norm(), m.trace(), m.determinant(), a.dot(b), m.sum()}},
+                    {"inv", Flatten(inv)}});
+  std::mt19937 rng = testing::SeededRng(kSeed);
+  const Eigen::Matrix3d mv = RandomMatrix(&rng, 3, 3);
+  const Eigen::Vector3d av = RandomMatrix(&rng, 3, 1), bv = RandomMatrix(&rng, 3, 1);
+  const auto r = f({FlattenValues(mv), av, bv});
+  EXPECT_LE(RelError(r[0], av.cross(bv)), kArithmeticRelTol);
+  const Eigen::VectorXd scalars =
+      (Eigen::VectorXd(5) << av.norm(), mv.trace(), mv.determinant(), av.dot(bv), mv.sum())
+          .finished();
+  EXPECT_LE(RelError(r[1], scalars), kArithmeticRelTol);
+  const Eigen::Matrix3d expected_inv = (mv + 4.0 * Eigen::Matrix3d::Identity()).inverse();
+  EXPECT_LE(RelError(Eigen::Map<const Eigen::MatrixXd>(r[2].data(), 3, 3), expected_inv),
+            kSolveRelTol);
+}
+
 TEST(ExprMatrix, StructuralZerosFoldAway) {
   // A diagonal matrix times a vector: only n products, no additions of zero terms.
   constexpr int n = 6;

@@ -131,6 +131,13 @@ class RobotDynamicsBlock : public BlockBase<RobotDynamicsBlock> {
       }
     } else if (c_.form == Form::kAcceleration) {
       info_.outputs = qdd;
+      if (c_.feature_outputs) {
+        for (SignalInfo s : qdd) {
+          s.description = "copy of " + s.name + " (physics acceleration as a network feature)";
+          s.name = "qdd_p" + s.name.substr(3);
+          info_.outputs.push_back(s);
+        }
+      }
       AddPartOutputs(qdd_range, tau_range);
     } else {
       info_.outputs = tau;
@@ -315,10 +322,14 @@ void RobotDynamicsBlock::Compute(const BlockArgs<Scalar>& a) const {
     return;
   }
   for (int i = 0; i < n; ++i) a.y[i] = qdd[i];
+  Scalar* out = a.y + n;
+  if (c_.feature_outputs) {
+    for (int i = 0; i < n; ++i) out[i] = qdd[i];
+    out += n;
+  }
   if (c_.parts == DynamicsParts::kNone) return;
   const JointVector<Scalar> coriolis = CoriolisForces(chain, bodies, q, qd);
   const JointVector<Scalar> gravity = GravityTorques(chain, bodies, q);
-  Scalar* out = a.y + n;
   if (c_.parts == DynamicsParts::kTorques) {
     for (int i = 0; i < n; ++i) {
       out[i] = drive[i];
@@ -428,6 +439,7 @@ Config KukaConfig(const KukaBlockOptions& options, Form form) {
         "KUKA KR300 R2500 joint accelerations f_phy(q, qd, tau_m) of roblue's model, without "
         "states (with the option 'parts', also the terms of seed 000 eq. 4 for hybrid models).";
     c.parts = options.parts;
+    c.feature_outputs = options.feature_outputs;
   }
   return c;
 }
@@ -606,13 +618,15 @@ void RegisterRobotBlocks(BlockRegistry& registry) {
       kuka_test_options);
   BlockOptions kuka_acceleration_test_options = kuka_test_options;
   kuka_acceleration_test_options.words["parts"] = "accelerations";
+  kuka_acceleration_test_options.numbers["feature_outputs"] = {1.0};
   registry.Register(
       kKukaKr300AccelerationBlock,
       [](const BlockOptions& o) -> std::unique_ptr<Block> {
         CheckOptionKeys(kKukaKr300AccelerationBlock, o,
                         {"payload", "inertial_parameters", "joint_torque_inputs", "parts",
-                         "inertia_reference"});
+                         "feature_outputs", "inertia_reference"});
         KukaBlockOptions options = ParseKuka(kKukaKr300AccelerationBlock, o);
+        options.feature_outputs = Flag(kKukaKr300AccelerationBlock, o, "feature_outputs", false);
         const std::string parts = Word(kKukaKr300AccelerationBlock, o, "parts", "none",
                                        {"none", "torques", "accelerations"});
         options.parts = parts == "none"      ? DynamicsParts::kNone

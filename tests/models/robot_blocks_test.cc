@@ -212,6 +212,10 @@ TEST(KukaAccelerationBlock, EqualsStateSpaceBlockAndPartsAddUp) {
   KukaBlockOptions options;
   options.parts = DynamicsParts::kAccelerations;
   const auto acc = MakeKukaKr300AccelerationBlock(options);
+  options.feature_outputs = true;
+  const auto with_features = MakeKukaKr300AccelerationBlock(options);
+  EXPECT_EQ(with_features->info().outputs[6].name, "qdd_p1");
+  options.feature_outputs = false;
   options.parts = DynamicsParts::kTorques;
   const auto torques = MakeKukaKr300AccelerationBlock(options);
   ASSERT_EQ(acc->NumStates(), 0);
@@ -237,6 +241,10 @@ TEST(KukaAccelerationBlock, EqualsStateSpaceBlockAndPartsAddUp) {
         ya.segment(6, 6) - ya.segment(12, 6) - ya.segment(18, 6) - ya.segment(24, 6);
     EXPECT_LT(MaxRelDiff(sum, qdd), kPartsTol);
     // M qdd = u tau_m - C qd - g - e2 tau_hwc.
+    const Eigen::VectorXd yf = Evaluate(*with_features, {}, u, p).y;
+    EXPECT_EQ(yf.head(6), qdd);
+    EXPECT_EQ(yf.segment(6, 6), qdd) << "feature copies";
+    EXPECT_EQ(yf.tail(24), ya.tail(24));
     const Eigen::VectorXd yt = Evaluate(*torques, {}, u, p).y;
     EXPECT_EQ(yt.head(6), qdd);
     Eigen::VectorXd rhs = yt.segment(6, 6) - yt.segment(12, 6) - yt.segment(18, 6);

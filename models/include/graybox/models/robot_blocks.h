@@ -63,9 +63,11 @@
 //
 // "robot.kuka_kr300_acceleration"  the same model without states: inputs q1..q6, qd1..qd6,
 //   tau_m1..tau_m6 (then tau_j1..6 with joint_torque_inputs); outputs qdd1..qdd6 (the right-hand
-//   side above) followed, with the word option "parts", by the terms of seed 000 eq. 4 that
-//   Models 3.a/3.b feed to a network (signals that are structurally zero are omitted, as in the
-//   seed):
+//   side above), then with the number option "feature_outputs" = 1 a copy "qdd_p1".."qdd_p6"
+//   (seed 000 Model 2 feeds f_phy to a network while the residual form also adds it to the
+//   acceleration; a block output feeds one signal), then with the word option "parts" the terms
+//   of seed 000 eq. 4 that Models 3.a/3.b feed to a network (signals that are structurally zero
+//   are omitted, as in the seed):
 //     "torques"        u o tau_m ("tau_u<i>"), C qd ("tau_c<i>"), g ("tau_g<i>"), tau_HWC
 //                      ("tau_hwc2", joint 2 only), all [N m];
 //     "accelerations"  the same premultiplied by M^-1: "qdd_u<i>", "qdd_c<i>", "qdd_g<i>",
@@ -118,6 +120,8 @@ struct KukaBlockOptions {
   JointOutputs outputs = JointOutputs::kNone;
   /// Acceleration block only.
   DynamicsParts parts = DynamicsParts::kNone;
+  /// Acceleration block only: adds the outputs "qdd_p<i>", copies of "qdd<i>".
+  bool feature_outputs = false;
 };
 
 /// "robot.serial_chain" for `chain` (copied into the block).

@@ -575,13 +575,15 @@ constexpr double kSmoothRelTol = 1e-14;
 // Slack for a documented inequality evaluated in floating point (a few roundings of O(1) values).
 constexpr double kRoundingSlack = 8 * std::numeric_limits<double>::epsilon();
 
-double Eval(const Expr& e) { return e.Value(); }  // constant arguments fold to a constant
+// The Expr functions on constant Expr arguments fold to a constant (the arguments are Exprs so
+// that double overloads, if any, are not picked instead).
+double Eval(const Expr& e) { return e.Value(); }
 
 TEST(SmoothVariants, SmoothAbs) {
   const double w = 0.1;
-  EXPECT_EQ(Eval(smooth_abs(0.0, w)), 0.0);
+  EXPECT_EQ(Eval(smooth_abs(Expr(0.0), Expr(w))), 0.0);
   for (double x : {-3.0, -0.5, 0.05, 2.0}) {
-    const double v = Eval(smooth_abs(x, w));
+    const double v = Eval(smooth_abs(Expr(x), Expr(w)));
     EXPECT_TRUE(Close(v, std::sqrt(x * x + w * w) - w, kSmoothRelTol)) << x;
     EXPECT_LE(v, std::fabs(x));
     EXPECT_GE(v, std::fabs(x) - w);
@@ -592,7 +594,7 @@ TEST(SmoothVariants, SmoothAbs) {
   }
   // Approaches |x| as w -> 0 (|x| - w <= smooth_abs <= |x|).
   const double tiny = 1e-9;
-  EXPECT_LE(std::fabs(Eval(smooth_abs(-0.7, tiny)) - 0.7), tiny + kRoundingSlack);
+  EXPECT_LE(std::fabs(Eval(smooth_abs(Expr(-0.7), Expr(tiny))) - 0.7), tiny + kRoundingSlack);
   // Smooth at 0: slope 0, curvature 1/w.
   const Expr x = Expr::Symbol("x");
   EXPECT_EQ(GradientAt(smooth_abs(x, w), {x}, {0.0})[0], 0.0);
@@ -602,12 +604,13 @@ TEST(SmoothVariants, SmoothAbs) {
 
 TEST(SmoothVariants, SmoothSign) {
   const double w = 0.01;
-  EXPECT_EQ(Eval(smooth_sign(0.0, w)), 0.0);
-  EXPECT_TRUE(Close(Eval(smooth_sign(0.003, w)), std::tanh(0.3), kSmoothRelTol));
+  EXPECT_EQ(Eval(smooth_sign(Expr(0.0), Expr(w))), 0.0);
+  EXPECT_TRUE(Close(Eval(smooth_sign(Expr(0.003), Expr(w))), std::tanh(0.3), kSmoothRelTol));
   // |tanh(x/w) - sign(x)| <= 2 exp(-2|x|/w): the limit w -> 0 is sign(x).
   for (double x : {-0.05, 0.02, 1.0}) {
     const double bound = 2.0 * std::exp(-2.0 * std::fabs(x) / w);
-    EXPECT_LE(std::fabs(Eval(smooth_sign(x, w)) - (x > 0 ? 1.0 : -1.0)), bound + kRoundingSlack);
+    EXPECT_LE(std::fabs(Eval(smooth_sign(Expr(x), Expr(w))) - (x > 0 ? 1.0 : -1.0)),
+              bound + kRoundingSlack);
   }
   const Expr x = Expr::Symbol("x");
   EXPECT_TRUE(Close(GradientAt(smooth_sign(x, w), {x}, {0.0})[0], 1.0 / w, kSmoothRelTol));
@@ -619,8 +622,8 @@ TEST(SmoothVariants, SmoothMaxAndMinBracketTheExactFunctions) {
   std::uniform_real_distribution<double> u(-2.0, 2.0);
   for (int k = 0; k < 20; ++k) {
     const double a = u(rng), b = u(rng);
-    const double smax = Eval(smooth_max(a, b, w));
-    const double smin = Eval(smooth_min(a, b, w));
+    const double smax = Eval(smooth_max(Expr(a), Expr(b), Expr(w)));
+    const double smin = Eval(smooth_min(Expr(a), Expr(b), Expr(w)));
     EXPECT_GE(smax, std::max(a, b));
     EXPECT_LE(smax, std::max(a, b) + w / 2 + kRoundingSlack);
     EXPECT_LE(smin, std::min(a, b));
@@ -629,12 +632,14 @@ TEST(SmoothVariants, SmoothMaxAndMinBracketTheExactFunctions) {
     EXPECT_TRUE(Close(smax + smin, a + b, kSmoothRelTol));
   }
   // At a tie the gap is exactly w/2.
-  EXPECT_TRUE(Close(Eval(smooth_max(1.0, 1.0, w)), 1.0 + w / 2, kSmoothRelTol));
-  EXPECT_TRUE(Close(Eval(smooth_min(1.0, 1.0, w)), 1.0 - w / 2, kSmoothRelTol));
+  EXPECT_TRUE(Close(Eval(smooth_max(Expr(1.0), Expr(1.0), Expr(w))), 1.0 + w / 2, kSmoothRelTol));
+  EXPECT_TRUE(Close(Eval(smooth_min(Expr(1.0), Expr(1.0), Expr(w))), 1.0 - w / 2, kSmoothRelTol));
   // Far from a tie they approach max/min: the gap is w^2 / (4 |a - b|) to first order.
   const double tiny = 1e-6;
-  EXPECT_LE(Eval(smooth_max(5.0, -5.0, tiny)) - 5.0, tiny * tiny / 40.0 + kRoundingSlack * 5.0);
-  EXPECT_LE(-5.0 - Eval(smooth_min(5.0, -5.0, tiny)), tiny * tiny / 40.0 + kRoundingSlack * 5.0);
+  EXPECT_LE(Eval(smooth_max(Expr(5.0), Expr(-5.0), Expr(tiny))) - 5.0,
+            tiny * tiny / 40.0 + kRoundingSlack * 5.0);
+  EXPECT_LE(-5.0 - Eval(smooth_min(Expr(5.0), Expr(-5.0), Expr(tiny))),
+            tiny * tiny / 40.0 + kRoundingSlack * 5.0);
   // Symmetric split of the derivative at a tie.
   const Expr x = Expr::Symbol("x"), y = Expr::Symbol("y");
   EXPECT_EQ(GradientAt(smooth_max(x, y, w), {x, y}, {1.0, 1.0}), Eigen::Vector2d(0.5, 0.5));
@@ -663,12 +668,12 @@ TEST(Overflow, SigmoidAndSoftplusStayFiniteAtPlusMinus800) {
     EXPECT_EQ(hs(point)[0][0], 0.0);
     EXPECT_EQ(hp(point)[0][0], 0.0);
     // Constant folding uses the same overflow-free formulas.
-    EXPECT_EQ(sigmoid(v).Value(), y[0]);
-    EXPECT_EQ(softplus(v).Value(), y[1]);
+    EXPECT_EQ(sigmoid(Expr(v)).Value(), y[0]);
+    EXPECT_EQ(softplus(Expr(v)).Value(), y[1]);
   }
   // Far tails keep full relative accuracy, not just finiteness.
-  EXPECT_TRUE(Close(sigmoid(-700.0).Value() / std::exp(-700.0), 1.0, kSmoothRelTol));
-  EXPECT_TRUE(Close(softplus(-700.0).Value() / std::exp(-700.0), 1.0, kSmoothRelTol));
+  EXPECT_TRUE(Close(sigmoid(Expr(-700.0)).Value() / std::exp(-700.0), 1.0, kSmoothRelTol));
+  EXPECT_TRUE(Close(softplus(Expr(-700.0)).Value() / std::exp(-700.0), 1.0, kSmoothRelTol));
 }
 
 }  // namespace

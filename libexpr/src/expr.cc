@@ -428,15 +428,17 @@ Expr sigmoid(const Expr& x) { return MakeOp(Op::kSigmoid, x); }
 Expr softplus(const Expr& x) { return MakeOp(Op::kSoftplus, x); }
 Expr sign(const Expr& x) { return MakeOp(Op::kSign, x); }
 
-Expr smooth_abs(const Expr& x, const Expr& w) { return sqrt(x * x + w * w) - w; }
-Expr smooth_sign(const Expr& x, const Expr& w) { return tanh(x / w); }
-Expr smooth_max(const Expr& a, const Expr& b, const Expr& w) {
-  const Expr d = a - b;
-  return 0.5 * (a + b + sqrt(d * d + w * w));
+double sigmoid(double x) {
+  const double a[1] = {x};
+  return EvaluateOp(Op::kSigmoid, a);
 }
-Expr smooth_min(const Expr& a, const Expr& b, const Expr& w) {
-  const Expr d = a - b;
-  return 0.5 * (a + b - sqrt(d * d + w * w));
+double softplus(double x) {
+  const double a[1] = {x};
+  return EvaluateOp(Op::kSoftplus, a);
+}
+double sign(double x) {
+  const double a[1] = {x};
+  return EvaluateOp(Op::kSign, a);
 }
 
 Expr lt(const Expr& a, const Expr& b) { return MakeOp(Op::kLt, a, b); }

@@ -19,6 +19,7 @@
 // table is guarded by a mutex). A single Expr object is as thread-safe as a std::shared_ptr.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <iosfwd>
@@ -132,14 +133,55 @@ Expr softplus(const Expr& x);
 Expr sign(const Expr& x);
 
 // Smooth variants with a width w > 0 (units of x). They approach the exact function as w -> 0.
+// Defined once as templates (internal::Smooth*) and offered for Expr and for double, so generic
+// model code calls the same function on both.
+namespace internal {
+template <typename T>
+T SmoothAbs(const T& x, const T& w) {
+  using std::sqrt;
+  return sqrt(x * x + w * w) - w;
+}
+template <typename T>
+T SmoothSign(const T& x, const T& w) {
+  using std::tanh;
+  return tanh(x / w);
+}
+template <typename T>
+T SmoothMax(const T& a, const T& b, const T& w) {
+  using std::sqrt;
+  const T d = a - b;
+  return 0.5 * (a + b + sqrt(d * d + w * w));
+}
+template <typename T>
+T SmoothMin(const T& a, const T& b, const T& w) {
+  using std::sqrt;
+  const T d = a - b;
+  return 0.5 * (a + b - sqrt(d * d + w * w));
+}
+}  // namespace internal
+
 /// sqrt(x^2 + w^2) - w: equals 0 at x = 0, |x| - w + O(w^2/|x|) far from 0, slope tanh-like.
-Expr smooth_abs(const Expr& x, const Expr& w);
+inline Expr smooth_abs(const Expr& x, const Expr& w) { return internal::SmoothAbs(x, w); }
+inline double smooth_abs(double x, double w) { return internal::SmoothAbs(x, w); }
 /// tanh(x/w): slope 1/w at 0.
-Expr smooth_sign(const Expr& x, const Expr& w);
+inline Expr smooth_sign(const Expr& x, const Expr& w) { return internal::SmoothSign(x, w); }
+inline double smooth_sign(double x, double w) { return internal::SmoothSign(x, w); }
 /// (a + b + sqrt((a-b)^2 + w^2))/2: >= max(a, b), within w/2 of it.
-Expr smooth_max(const Expr& a, const Expr& b, const Expr& w);
+inline Expr smooth_max(const Expr& a, const Expr& b, const Expr& w) {
+  return internal::SmoothMax(a, b, w);
+}
+inline double smooth_max(double a, double b, double w) { return internal::SmoothMax(a, b, w); }
 /// (a + b - sqrt((a-b)^2 + w^2))/2: <= min(a, b), within w/2 of it.
-Expr smooth_min(const Expr& a, const Expr& b, const Expr& w);
+inline Expr smooth_min(const Expr& a, const Expr& b, const Expr& w) {
+  return internal::SmoothMin(a, b, w);
+}
+inline double smooth_min(double a, double b, double w) { return internal::SmoothMin(a, b, w); }
+
+// The table operations without a std:: counterpart, on doubles, with the exact values of the op
+// table (so generic code gives bit-identical results on double and through a Function).
+double sigmoid(double x);
+double softplus(double x);
+double sign(double x);
 
 // Comparisons and logic give 1.0 (true) or 0.0 (false).
 Expr lt(const Expr& a, const Expr& b);

@@ -58,8 +58,7 @@
 //   and the 18 friction parameters. With nominal parameters it equals KukaForwardDynamics.
 //   Registry options: numbers "payload" [kg] (150), "inertial_parameters" (1),
 //   "joint_torque_inputs" (0); words "outputs", "inertia_reference" = "origin" (default, roblue)
-//   | "center_of_mass". The shared registry suite instantiates it with inertial_parameters = 0
-//   (18 parameters) to stay fast; tests/models/robot_blocks_test.cc checks the full block.
+//   | "center_of_mass". The shared registry suite checks it with its default options.
 //
 // "robot.kuka_kr300_acceleration"  the same model without states: inputs q1..q6, qd1..qd6,
 //   tau_m1..tau_m6 (then tau_j1..6 with joint_torque_inputs); outputs qdd1..qdd6 (the right-hand
@@ -73,7 +72,10 @@
 //     "accelerations"  the same premultiplied by M^-1: "qdd_u<i>", "qdd_c<i>", "qdd_g<i>",
 //                      "qdd_hwc<i>" (all six: M^-1 e_2 tau_HWC is not sparse), [rad/s^2].
 //   (Seed 000 names the set with M^-1 "3.b M^-1 . PHY parts -> ANN" in its text but prints the
-//   formulas of 3.a and 3.b the other way round in Table 2; see hybrid.h.)
+//   formulas of 3.a and 3.b the other way round in Table 2; see hybrid.h.) The shared registry
+//   suite checks it with parts = accelerations, feature_outputs = 1 and inertial_parameters = 0
+//   (the parts triple the derivative work); tests/models/robot_blocks_test.cc checks the
+//   84-parameter form.
 #pragma once
 
 #include <memory>

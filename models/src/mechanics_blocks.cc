@@ -151,7 +151,8 @@ class CascadePController : public BlockBase<CascadePController> {
     const Scalar v = kv * (kp * (a.u[0] - a.u[1]) - a.u[2]);
     const Scalar up = v + limit, down = v - limit;
     const double e2 = smoothing_ * smoothing_;
-    a.y[0] = 0.5 * (sqrt(up * up + e2) - sqrt(down * down + e2));
+    // (A - B) / 2 with A^2 - B^2 = 4 L v, written without the cancellation of A - B.
+    a.y[0] = 2.0 * limit * v / (sqrt(up * up + e2) + sqrt(down * down + e2));
   }
 
  private:
@@ -184,6 +185,31 @@ class GainBlock : public BlockBase<GainBlock> {
   }
 };
 
+// ---- signal.integrator --------------------------------------------------------------------------
+class IntegratorBlock : public BlockBase<IntegratorBlock> {
+ public:
+  explicit IntegratorBlock(const BlockOptions& options) {
+    CheckOptionKeys(kIntegratorBlock, options, {"input_unit", "output_unit"});
+    const std::string in = Word(options, "input_unit", "1/s");
+    const std::string out = Word(options, "output_unit", "1");
+    if (in.empty() || out.empty()) {
+      throw std::invalid_argument("block '" + std::string(kIntegratorBlock) +
+                                  "': options 'input_unit' and 'output_unit' expected a unit, got "
+                                  "an empty word");
+    }
+    info_.type = kIntegratorBlock;
+    info_.description =
+        "Integrator dy/dt = u (with a forward-difference input: a first-order hold).";
+    info_.reference = "first-order hold of the EMPS reference (data/emps/SOURCE.md, qg at 1 kHz)";
+    info_.inputs = {{"u", in, "rate", -1.0, 1.0}};
+    info_.states = {{"y", out, "integral of the input", -1.0, 1.0}};
+  }
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    a.xdot[0] = a.u[0];
+  }
+};
+
 template <typename T>
 BlockFactory Factory() {
   return [](const BlockOptions& options) { return std::make_unique<T>(options); };
@@ -194,6 +220,8 @@ BlockFactory Factory() {
 void RegisterMechanicsBlocks(BlockRegistry& registry) {
   registry.Register(kMassBlock, Factory<MassBlock>());
   registry.Register(kCascadePController, Factory<CascadePController>());
+  registry.Register(kIntegratorBlock, Factory<IntegratorBlock>(),
+                    {{}, {{"input_unit", "m/s"}, {"output_unit", "m"}}});
   registry.Register(kGainBlock, Factory<GainBlock>(),
                     {{}, {{"input_unit", "V"}, {"output_unit", "N"}}});
 }

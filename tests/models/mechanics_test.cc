@@ -1,7 +1,8 @@
 // Closed-form checks of the mechanics, control and signal blocks (graybox/models/mechanics.h):
 // Newton's law of the mass, the cascaded P/P law and its smooth saturation against the formulas
 // of the header, the step response of the closed EMPS loop against the second-order solution,
-// the gain at its neutral value in series, and option validation. The shared suite
+// the gain at its neutral value in series, the integrator as a first-order hold, and option
+// validation. The shared suite
 // (block_registry_test.cc) adds metadata, double == Expr and finite-difference checks.
 #include <gtest/gtest.h>
 
@@ -202,6 +203,29 @@ TEST(Gain, ScalesAndIsTheIdentityAtNeutral) {
   const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, 7.0);
   EXPECT_EQ(before.dynamics({x, u, before.ParameterValues()})[0],
             after.dynamics({x, u, after.ParameterValues()})[0]);
+}
+
+// A first-order hold: the integrator driven by the forward difference of samples r[k] reproduces
+// them at every sample (the increments telescope) and is linear in between.
+TEST(Integrator, ForwardDifferencesReproduceTheSamples) {
+  BlockOptions units;
+  units.words = {{"input_unit", "m/s"}, {"output_unit", "m"}};
+  const auto block = BlockRegistry::Global().Create(kIntegratorBlock, units);
+  EXPECT_EQ(block->info().states[0].unit, "m");
+  EXPECT_EQ(block->NumParameters(), 0);
+  const std::vector<double> r = {0.0, 1e-4, 3e-4, 2.5e-4, 2.5e-4, 7e-4};
+  const double dt = 1e-3;
+  double y = r[0];
+  for (std::size_t k = 0; k + 1 < r.size(); ++k) {
+    const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, (r[k + 1] - r[k]) / dt);
+    const Eigen::VectorXd x = Eigen::VectorXd::Constant(1, y);
+    const double rate = EvaluateBlock(*block, x, u, {}).xdot[0];
+    EXPECT_EQ(rate, u[0]);
+    // Halfway through the sample the integral is the linear interpolation.
+    EXPECT_NEAR(y + 0.5 * dt * rate, 0.5 * (r[k] + r[k + 1]), kSameFormulaTolerance);
+    y += dt * rate;
+    EXPECT_NEAR(y, r[k + 1], kSameFormulaTolerance);
+  }
 }
 
 }  // namespace

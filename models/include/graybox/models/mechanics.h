@@ -1,5 +1,6 @@
 // Mechanics, control and signal blocks: a rigid one-degree-of-freedom load, the cascaded
-// position/velocity P controller of the EMPS benchmark, and a gain. They are registered in
+// position/velocity P controller of the EMPS benchmark, a gain and an integrator. They are
+// registered in
 // BlockRegistry::Global() under the type names below; this header is their reference (equations,
 // units, parameters with nominal values, bounds and neutral values, options, smoothing).
 //
@@ -31,6 +32,7 @@
 // "control.cascade_p"  (EMPS position controller)
 //     v  = kp kv (qr - q) - kv qd                       unsaturated command
 //     nu = S(v) = (sqrt((v + L)^2 + eps^2) - sqrt((v - L)^2 + eps^2)) / 2
+//              = 2 L v / (sqrt((v + L)^2 + eps^2) + sqrt((v - L)^2 + eps^2))   (as evaluated)
 //   inputs  qr [m] (0, 0.25) position reference, q [m] (0, 0.25) measured position,
 //           qd [m/s] (-0.3, 0.3) measured velocity
 //   output  nu [V] (-10, 10) controller output (drive command)
@@ -46,6 +48,8 @@
 //   v = 9.9 V; at the corner S(L) = L - eps/2 + O(eps^2/L); beyond it
 //   S(v) = L - eps^2 L / (2 (v^2 - L^2)) + O(eps^4), approaching L. The slope dS/dv goes from 1 to
 //   0 over a width of a few eps around |v| = L, so an optimiser sees a smooth but sharp corner.
+//   The second form has no cancellation: deep in saturation (|v| ~ 1e4 V at a 0.25 m position
+//   error) the difference form would lose 12 digits of S and of its derivatives.
 //   options "smoothing" eps [V] (default kDefaultSaturationSmoothing = 1e-3; > 0) and "motion"
 //   as for mechanics.mass (rotational: qr, q [rad] (-pi, pi), qd [rad/s] (-10, 10), kv [V s/rad]).
 //   The EMPS loop computes qd from a two-tap averaged position difference at 1 kHz; in a
@@ -59,6 +63,18 @@
 //   input "V", output "N", k = g_tau = 35.15 N/V, fixed from the data file). At the neutral value
 //   k = 1 the output equals the input, so the block can be put in series on any signal
 //   (Model::InsertOnSignal) as a candidate gain error without changing the model.
+// "signal.integrator"  (an integrator state)
+//     dy/dt = u
+//   input u [input_unit] (-1, 1), state y [output_unit] (-1, 1); no parameters, no outputs (the
+//   state is the signal "<instance>.y")
+//   options "input_unit" (default "1/s"), "output_unit" (default "1") label the signals.
+//   Use: a first-order hold of a sampled signal. The integrators of the estimators hold every
+//   input constant over a sample interval (zero-order hold), which delays a sampled reference by
+//   half a sample on average: 62 um at the EMPS's 0.125 m/s, which its position loop
+//   (kp kv = 3.9e4 V/m) turns into a 2.4 V bias of the command. Driving an integrator with the
+//   forward difference (r[k+1] - r[k]) / dt of the reference (a data mapping with rate = true,
+//   problem_file.h) and starting it at r[0] reproduces r exactly at the samples and linearly in
+//   between.
 #pragma once
 
 #include <string>
@@ -68,6 +84,7 @@ namespace graybox::models {
 inline constexpr char kMassBlock[] = "mechanics.mass";
 inline constexpr char kCascadePController[] = "control.cascade_p";
 inline constexpr char kGainBlock[] = "signal.gain";
+inline constexpr char kIntegratorBlock[] = "signal.integrator";
 
 /// Default smoothing width eps [V] of the control.cascade_p saturation (see above).
 inline constexpr double kDefaultSaturationSmoothing = 1e-3;

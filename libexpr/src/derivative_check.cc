@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -56,6 +57,7 @@ DerivativeCheckResult CheckDerivative(const Function& f, const std::string& outp
   result.cols = n;
   std::vector<DerivativeCheckEntry> all;
   std::vector<Eigen::VectorXd> x = point;
+  std::vector<double> steps(n, 1.0), value_scale(m, 0.0);
   for (int j = 0; j < n; ++j) {
     const double x0 = point[ji][j];
     const double h = options.relative_step * std::max(1.0, std::fabs(x0));
@@ -65,16 +67,34 @@ DerivativeCheckResult CheckDerivative(const Function& f, const std::string& outp
     const Eigen::VectorXd fm = f(x)[jo];
     x[ji][j] = x0;
     const double step = (x0 + h) - (x0 - h);  // the step actually taken, after rounding
+    steps[j] = step;
+    for (int i = 0; i < m; ++i) {
+      value_scale[i] = std::max({value_scale[i], std::fabs(fp[i]), std::fabs(fm[i])});
+    }
     for (int i = 0; i < m; ++i) {
       DerivativeCheckEntry e;
       e.row = i;
       e.col = j;
       e.analytic = analytic(i, j);
       e.finite_difference = (fp[i] - fm[i]) / step;
-      e.error = std::fabs(e.analytic - e.finite_difference) / std::max(1.0, std::fabs(e.analytic));
-      result.max_error = std::max(result.max_error, e.error);
       all.push_back(e);
     }
+  }
+  // Scale-free errors (see the header): relative to the entry, floored by a fraction of its row.
+  std::vector<double> row_scale(m, 0.0);
+  for (const auto& e : all) {
+    row_scale[e.row] =
+        std::max({row_scale[e.row], std::fabs(e.analytic), std::fabs(e.finite_difference)});
+  }
+  constexpr double kEps = std::numeric_limits<double>::epsilon();
+  for (auto& e : all) {
+    const double noise = options.noise_factor * kEps * value_scale[e.row] / steps[e.col];
+    const double denominator =
+        std::max({std::fabs(e.analytic), std::fabs(e.finite_difference),
+                  options.row_floor * row_scale[e.row], std::numeric_limits<double>::min()}) +
+        noise / options.tolerance;
+    e.error = std::fabs(e.analytic - e.finite_difference) / denominator;
+    result.max_error = std::max(result.max_error, e.error);
   }
   result.entries_checked = static_cast<int>(all.size());
   result.ok = result.max_error <= options.tolerance;

@@ -2,10 +2,17 @@
 //
 // Central differences with step h_j = relative_step * max(1, |x_j|). With the default
 // relative_step = cbrt(machine epsilon) ~ 6e-6 the truncation error is O(h^2 |f'''|) and the
-// rounding error O(eps |f| / h), both ~1e-10 relative for well-scaled functions, so the default
-// tolerance 1e-6 on |analytic - fd| / max(1, |analytic|) leaves four orders of margin while still
-// catching any wrong partial. Entries outside the analytic sparsity pattern are checked too: a
-// finite difference that is clearly nonzero where the pattern claims a structural zero fails.
+// rounding error O(eps |f| / h), both ~1e-10 relative for well-scaled functions.
+//
+// The error of entry (i, j) is scale-free:
+//     e_ij = |a_ij - fd_ij| / (max(|a_ij|, |fd_ij|, row_floor * s_i) + n_ij / tolerance),
+//     s_i  = max_j max(|a_ij|, |fd_ij|),   n_ij = noise_factor * eps * max|f_i(x +- h_j)| / h_j,
+// and the check passes when every e_ij <= tolerance. So a function measured in kg/s is checked as
+// strictly as one in N; entries many orders below the largest of their row are measured against a
+// fraction of it; and n_ij, the rounding noise of the central difference itself, never fails a
+// check (an analytic 0 against a finite difference of 1e-10 on a function of size 10 is noise).
+// Entries outside the analytic sparsity pattern are checked too: a finite difference that is
+// clearly nonzero where the pattern claims a structural zero fails.
 #pragma once
 
 #include <string>
@@ -20,8 +27,12 @@ namespace graybox::expr {
 struct DerivativeCheckOptions {
   /// Step relative to max(1, |x_j|).
   double relative_step = 6.0554544523933395e-06;  // cbrt(2^-52)
-  /// Allowed |analytic - finite difference| / max(1, |analytic|).
+  /// Allowed e_ij (see above).
   double tolerance = 1e-6;
+  /// Fraction of the row's largest derivative below which errors are measured against it.
+  double row_floor = 1e-4;
+  /// Multiple of eps |f| / h accepted as finite-difference rounding noise.
+  double noise_factor = 1000.0;
   /// Number of worst entries listed in the full report.
   int max_reported = 10;
 };
@@ -31,7 +42,7 @@ struct DerivativeCheckEntry {
   int col = 0;
   double analytic = 0.0;
   double finite_difference = 0.0;
-  double error = 0.0;  // |analytic - fd| / max(1, |analytic|)
+  double error = 0.0;  // e_ij, see the file comment
 };
 
 struct DerivativeCheckResult {

@@ -1,0 +1,88 @@
+// Simulation of splits with metrics, finite-difference checks of the model, and atomic writes.
+#include <unistd.h>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <stdexcept>
+
+#include "app.h"
+#include "graybox/estimators/integrators.h"
+#include "graybox/expr/derivative_check.h"
+
+namespace graybox::app {
+
+SplitEvaluation EvaluateSimulation(const estimators::Problem& problem,
+                                   const estimators::SplitData& split, const Eigen::VectorXd& p,
+                                   const Eigen::VectorXd& x0) {
+  const estimators::Experiment& e = split.experiment;
+  SplitEvaluation ev;
+  ev.name = split.name;
+  ev.data_name = split.data_name;
+  ev.role = split.role;
+  ev.time = e.Time();
+  ev.measured = e.y;
+  ev.x0 = x0;
+  const estimators::Trajectory traj =
+      estimators::SimulateRk4(problem.built, x0, e.u, p, e.dt, problem.estimation.substeps);
+  ev.simulated = traj.y;
+  ev.simulation_ok = traj.ok;
+  ev.failed_at = traj.failed_at;
+  if (!traj.ok && traj.failed_at >= 0) {
+    ev.simulated.bottomRows(ev.simulated.rows() - traj.failed_at).setConstant(std::nan(""));
+  }
+  ev.simulation = estimators::ComputeMetrics(e, ev.simulated);
+  return ev;
+}
+
+std::vector<DerivativeCheckLine> CheckModelDerivatives(const estimators::Problem& problem,
+                                                       const estimators::SplitData& split,
+                                                       const Eigen::VectorXd& p) {
+  std::vector<DerivativeCheckLine> lines;
+  const models::StateSpaceModel& m = problem.built;
+  const Eigen::VectorXd u0 = split.experiment.u.row(0).transpose();
+  for (const auto* f : {&m.dynamics, &m.output}) {
+    const std::string out = f->OutputName(0);
+    for (const char* in : {"x", "u", "p"}) {
+      if (f->OutputSize(0) == 0 || f->InputSize(f->InputIndex(in)) == 0) continue;
+      const expr::DerivativeCheckResult r = expr::CheckJacobian(*f, out, in, {split.x0, u0, p});
+      DerivativeCheckLine line;
+      line.what = "d " + out + " / d " + in;
+      line.ok = r.ok;
+      line.max_error = r.max_error;
+      line.report = r.BriefReport();
+      std::cout << "  " << line.what << ": " << line.report << "\n";
+      if (!r.ok) std::cout << r.FullReport();
+      lines.push_back(line);
+    }
+  }
+  return lines;
+}
+
+void WriteFileAtomically(const std::string& path, const std::string& content) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path temp = target.parent_path() / ("." + target.filename().string() + ".tmp-" +
+                                                std::to_string(static_cast<long>(::getpid())));
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    out << content;
+    out.flush();
+    if (!out) {
+      std::error_code ignored;
+      fs::remove(temp, ignored);
+      throw std::runtime_error("cannot write '" + temp.string() + "'");
+    }
+  }
+  std::error_code ec;
+  fs::rename(temp, target, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(temp, ignored);
+    throw std::runtime_error("cannot rename '" + temp.string() + "' to '" + path +
+                             "': " + ec.message());
+  }
+}
+
+}  // namespace graybox::app

@@ -1,0 +1,233 @@
+// result.json / simulation.json (nlohmann_json, insertion-ordered; NaN and Inf become null), CSV
+// traces, and the atomic writing of every output.
+#include "report.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace graybox::app {
+
+using Json = nlohmann::ordered_json;
+
+namespace {
+
+Json ChannelJson(const estimators::ChannelMetrics& c) {
+  Json j;
+  j["unit"] = c.unit;
+  j["rmse"] = c.rmse;
+  j["nrmse"] = c.nrmse;
+  j["fit_percent"] = c.fit_percent;
+  j["r2"] = c.r2;
+  j["vaf_percent"] = c.vaf_percent;
+  j["mae"] = c.mae;
+  j["nmae"] = c.nmae;
+  j["nmse"] = c.nmse;
+  // ||y - y_hat|| / ||y||, the "relative error" of the EMPS benchmark.
+  j["relative_error_percent"] = 100.0 * std::sqrt(c.nmse);
+  return j;
+}
+
+Json MetricsJson(const estimators::MetricReport& r) {
+  Json j;
+  j["samples"] = r.samples;
+  j["skipped"] = r.skipped;
+  Json channels = Json::object();
+  for (const auto& c : r.channels) channels[c.name] = ChannelJson(c);
+  j["channels"] = channels;
+  j["overall"] = ChannelJson(r.overall);
+  return j;
+}
+
+Json StateJson(const models::StateSpaceModel& m, const Eigen::VectorXd& x) {
+  Json j = Json::object();
+  for (int i = 0; i < m.NumStates() && i < x.size(); ++i) j[m.states[i].name] = x[i];
+  return j;
+}
+
+std::string SafeName(const std::string& name) {
+  std::string s;
+  for (char c : name) {
+    s +=
+        (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.') ? c : '_';
+  }
+  return s;
+}
+
+}  // namespace
+
+std::string ReportJson(const RunReport& report) {
+  const estimators::Problem& problem = *report.problem;
+  const models::StateSpaceModel& m = problem.built;
+  Json j;
+  j["graybox"] = {{"version", Version()}, {"git_revision", GitRevision()}};
+  j["command"] = report.command;
+  j["command_line"] = report.command_line;
+  j["problem"] = {
+      {"path", problem.path},
+      {"absolute_path", std::filesystem::absolute(problem.path).lexically_normal().string()},
+      {"name", problem.name},
+      {"description", problem.description}};
+  j["method"] = report.command == "fit" ? problem.estimation.method : "simulation";
+  j["solver"] = report.has_solver ? report.solver.solver : "";
+  j["seed"] = report.seed;
+  Json status;
+  status["result"] = report.status;
+  status["exit_code"] = report.exit_code;
+  status["message"] = report.message;
+  if (report.has_solver) {
+    status["solver_success"] = report.solver.success;
+    status["solver_status"] = report.solver.status;
+    status["solver_message"] = report.solver.message;
+    status["iterations"] = report.solver.iterations;
+    status["cost"] = report.solver.cost;
+    status["constraint_violation"] = report.solver.constraint_violation;
+    status["solver_seconds"] = report.solver.seconds;
+    status["brief_report"] = report.solver.BriefReport();
+  }
+  j["status"] = status;
+  if (report.command == "fit") {
+    Json f;
+    for (const auto& [k, v] : report.formulation) f[k] = v;
+    f["variables"] = report.num_variables;
+    f["constraints"] = report.num_constraints;
+    f["residuals"] = report.num_residuals;
+    j["formulation"] = f;
+  } else {
+    j["parameter_file"] = report.parameter_file;
+  }
+  Json seconds = Json::object();
+  for (const auto& [k, v] : report.seconds) seconds[k] = v;
+  j["seconds"] = seconds;
+  // Parameters: every model parameter, by qualified name.
+  Json params = Json::object();
+  for (int i = 0; i < m.NumParameters(); ++i) {
+    const models::ModelParameter& mp = m.parameters[i];
+    Json p;
+    p["value"] = report.parameters.size() > i ? report.parameters[i] : mp.value;
+    p["unit"] = mp.info.unit;
+    p["free"] = mp.free;
+    if (report.initial_parameters.size() > i) p["initial"] = report.initial_parameters[i];
+    p["lower"] = mp.lower;
+    p["upper"] = mp.upper;
+    if (report.has_uncertainty) {
+      for (const auto& e : report.uncertainty.parameters) {
+        if (e.name != mp.name) continue;
+        p["std_error"] = e.std_error;
+        p["relative_std_percent"] =
+            e.value != 0.0 ? 100.0 * e.std_error / std::fabs(e.value) : std::nan("");
+        p["ci95"] = {e.ci_low, e.ci_high};
+      }
+    }
+    p["description"] = mp.info.description;
+    params[mp.name] = p;
+  }
+  j["parameters"] = params;
+  if (report.command == "fit") {
+    Json u;
+    if (report.has_uncertainty) {
+      const auto& r = report.uncertainty;
+      u["residual_variance"] = r.residual_variance;
+      u["num_residuals"] = r.num_residuals;
+      u["condition_number"] = r.condition_number;
+      u["warnings"] = r.warnings;
+      Json names = Json::array();
+      for (int i : r.free_indices) names.push_back(m.parameters[i].name);
+      u["free_parameters"] = names;
+      Json corr = Json::array();
+      for (Eigen::Index a = 0; a < r.correlation.rows(); ++a) {
+        Json row = Json::array();
+        for (Eigen::Index b = 0; b < r.correlation.cols(); ++b) row.push_back(r.correlation(a, b));
+        corr.push_back(row);
+      }
+      u["correlation"] = corr;
+      u["brief_report"] = r.BriefReport();
+    } else {
+      u["error"] = report.uncertainty_error;
+    }
+    j["uncertainty"] = u;
+    Json states = Json::object();
+    for (const auto& [split, x] : report.estimated_initial_states) states[split] = StateJson(m, x);
+    j["initial_states"] = states;
+  }
+  Json metrics = Json::object();
+  for (const SplitEvaluation& e : report.evaluations) {
+    Json s;
+    s["data"] = e.data_name;
+    s["role"] = estimators::SplitRoleName(e.role);
+    s["samples"] = static_cast<int>(e.time.size());
+    s["x0"] = StateJson(m, e.x0);
+    Json sim = MetricsJson(e.simulation);
+    sim["ok"] = e.simulation_ok;
+    sim["failed_at"] = e.failed_at >= 0 ? Json(e.failed_at) : Json(nullptr);
+    s["simulation"] = sim;
+    if (e.has_equation) s["equation"] = MetricsJson(e.equation);
+    metrics[e.name] = s;
+  }
+  j["metrics"] = metrics;
+  if (!report.derivative_checks.empty()) {
+    Json checks = Json::array();
+    for (const auto& c : report.derivative_checks) {
+      checks.push_back({{"what", c.what}, {"ok", c.ok}, {"max_error", c.max_error}});
+    }
+    j["derivative_checks"] = checks;
+  }
+  if (report.has_solver) j["solver_log"] = report.solver.log;
+  return j.dump(2) + "\n";
+}
+
+std::string TraceCsv(const SplitEvaluation& e, const models::StateSpaceModel& model) {
+  std::ostringstream os;
+  os << "time";
+  for (const auto& o : model.outputs) os << "," << o.name << ".measured," << o.name << ".simulated";
+  os << "\n";
+  char buf[64];
+  for (Eigen::Index k = 0; k < e.time.size(); ++k) {
+    std::snprintf(buf, sizeof buf, "%.9g", e.time[k]);
+    os << buf;
+    for (int j = 0; j < model.NumOutputs(); ++j) {
+      std::snprintf(buf, sizeof buf, ",%.12g", e.measured(k, j));
+      os << buf;
+      std::snprintf(buf, sizeof buf, ",%.12g", e.simulated(k, j));
+      os << buf;
+    }
+    os << "\n";
+  }
+  return os.str();
+}
+
+std::vector<std::string> WriteOutputs(const std::string& dir, const std::string& json_name,
+                                      const RunReport& report) {
+  namespace fs = std::filesystem;
+  const fs::path root(dir);
+  fs::create_directories(root / "plots");
+  fs::create_directories(root / "traces");
+  std::vector<std::string> written;
+  const models::StateSpaceModel& m = report.problem->built;
+  for (const SplitEvaluation& e : report.evaluations) {
+    const std::string base = SafeName(e.name);
+    const fs::path outputs = root / "plots" / (base + "_outputs.svg");
+    WriteFileAtomically(outputs.string(), PlotOutputs(e, m));
+    written.push_back(outputs.string());
+    const fs::path residuals = root / "plots" / (base + "_residuals.svg");
+    WriteFileAtomically(residuals.string(), PlotResiduals(e, m));
+    written.push_back(residuals.string());
+    if (e.has_equation) {
+      const fs::path eq = root / "plots" / (base + "_equation.svg");
+      WriteFileAtomically(eq.string(), PlotEquation(e));
+      written.push_back(eq.string());
+    }
+    const fs::path trace = root / "traces" / (base + ".csv");
+    WriteFileAtomically(trace.string(), TraceCsv(e, m));
+    written.push_back(trace.string());
+  }
+  // The JSON last: its presence says the run completed.
+  const fs::path json = root / json_name;
+  WriteFileAtomically(json.string(), ReportJson(report));
+  written.push_back(json.string());
+  return written;
+}
+
+}  // namespace graybox::app

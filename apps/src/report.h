@@ -1,0 +1,59 @@
+// Private: what a command writes to DIR (result.json / simulation.json, SVG plots, CSV traces),
+// gathered in one struct and serialised in one translation unit (nlohmann_json).
+#pragma once
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "app.h"
+
+namespace graybox::app {
+
+struct RunReport {
+  std::string command;  // "fit" or "simulate"
+  std::string command_line;
+  const estimators::Problem* problem = nullptr;
+  /// "success", "solver_failure" or "simulation_failure".
+  std::string status = "success";
+  int exit_code = kExitSuccess;
+  std::string message;
+  unsigned seed = 0;
+  // Fit.
+  bool has_solver = false;
+  estimators::SolverResult solver;
+  /// Formulation summary: key -> value, in order.
+  std::vector<std::pair<std::string, std::string>> formulation;
+  int num_variables = 0;
+  int num_constraints = 0;
+  int num_residuals = 0;
+  Eigen::VectorXd initial_parameters;
+  Eigen::VectorXd parameters;
+  bool has_uncertainty = false;
+  estimators::UncertaintyReport uncertainty;
+  std::string uncertainty_error;
+  /// Estimated initial states by split (shooting and collocation).
+  std::map<std::string, Eigen::VectorXd> estimated_initial_states;
+  // Simulate.
+  std::string parameter_file;
+  // Both.
+  std::vector<SplitEvaluation> evaluations;
+  std::vector<DerivativeCheckLine> derivative_checks;
+  std::vector<std::pair<std::string, double>> seconds;  // phase -> wall time
+};
+
+/// The JSON document (pretty-printed, NaN as null).
+std::string ReportJson(const RunReport& report);
+/// The measured and simulated outputs of a split as CSV (time, then measured and simulated per
+/// output).
+std::string TraceCsv(const SplitEvaluation& e, const models::StateSpaceModel& model);
+
+/// Writes the JSON as `json_name`, the plots in DIR/plots and the traces in DIR/traces, each
+/// atomically. Creates DIR when needed. Returns the paths written.
+std::vector<std::string> WriteOutputs(const std::string& dir, const std::string& json_name,
+                                      const RunReport& report);
+
+}  // namespace graybox::app

@@ -52,7 +52,7 @@ std::vector<DerivativeCheckLine> CheckModelDerivatives(const estimators::Problem
       line.ok = r.ok;
       line.max_error = r.max_error;
       line.report = r.BriefReport();
-      std::cout << "  " << line.what << ": " << line.report << "\n";
+      std::cout << "  " << line.report << "\n";
       if (!r.ok) std::cout << r.FullReport();
       lines.push_back(line);
     }

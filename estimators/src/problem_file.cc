@@ -631,7 +631,13 @@ void CheckIpoptOptions(const Section& s, const IpoptOptions& options) {
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
     for (const auto& [key, value] : options.pass_through) {
-      if (what.find("'" + key + "'") != std::string::npos) s.Fail(key, what);
+      if (what.find("'" + key + "'") == std::string::npos) continue;
+      // Ipopt's own names did not come close: try the IpoptOptions fields of this table.
+      const std::string hint =
+          what.find("did you mean") == std::string::npos
+              ? Suggestion(key, {"max_iterations", "tolerance", "exact_hessian", "print_level"})
+              : "";
+      s.Fail(key, what + hint);
     }
     s.Fail("", what);
   }

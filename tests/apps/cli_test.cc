@@ -1,0 +1,206 @@
+// The `graybox` executable end to end: exit codes 0 / 2 / 3, result.json of the shipped EMPS
+// IDIM-LS problem against the published values, the closed-loop problem against IDIM-LS, a
+// generated problem whose parameters are known, `simulate` with a result.json, and that a
+// bad-input run leaves an existing output directory untouched.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "test_util.h"
+
+namespace graybox::apps_testing {
+namespace {
+
+using Json = nlohmann::json;
+
+const std::string kEmpsDir = std::string(GRAYBOX_SOURCE_DIR) + "/problems/emps";
+const std::string kEmpsData = std::string(GRAYBOX_SHARED_DATA_DIR) + "/emps/DATA_EMPS.mat";
+bool HaveEmps() { return fs::exists(kEmpsData); }
+
+// Published IDIM-LS values (../shared/data/emps/SOURCE.md, EMPS_Description.pdf).
+constexpr double kPublishedMass = 95.1089;      // kg
+constexpr double kPublishedViscous = 203.5034;  // N s/m
+constexpr double kPublishedCoulomb = 20.3935;   // N
+constexpr double kPublishedOffset = -3.1648;    // N
+constexpr double kPublishedMassStd = 0.1085;    // kg
+// The task's acceptance band. The recipe reproduced here matches to ~1e-5 relative; 2 % is the
+// band the benchmark's own sensitivity study (cut-offs 75-200 Hz, orders 2-8, decimation 1-20
+// within 0.8 %) leaves for honest variations of the recipe.
+constexpr double kPublishedTolerance = 0.02;
+// Published relative errors (direct validation and cross-test on the pulses record), given to
+// 3 digits: half a unit of the last digit plus the tolerance on the parameters' effect (0.1).
+constexpr double kPublishedRelativeError = 4.08;   // %
+constexpr double kPublishedCrossTestError = 5.98;  // %
+constexpr double kRelativeErrorTolerance = 0.1;    // percentage points
+// Multiple shooting of the closed loop against IDIM-LS: a different model of the same stage
+// (continuous controller, smoothed Coulomb friction, output error on position and command), so
+// agreement within 3 % is what the closed loop determines (problems/emps/README.md: 1.4 % on M).
+constexpr double kClosedLoopTolerance = 0.03;
+// The generated problem is simulated exactly by the closed form; the RK4 model at dt = 10 ms
+// with T = m / fv = 0.5 s has a discretisation error ~(dt/T)^4 / 120 ~ 1e-9, so the noise-free
+// fit recovers the parameters to ~1e-6 relative; 1e-4 leaves margin for the solver tolerance.
+constexpr double kRecoveryTolerance = 1e-4;
+
+Json ReadJson(const std::string& path) { return Json::parse(ReadText(path)); }
+
+double Value(const Json& result, const std::string& name) {
+  return result["parameters"][name]["value"].get<double>();
+}
+
+TEST(Cli, EmpsIdimReproducesThePublishedValues) {
+  if (!HaveEmps()) GTEST_SKIP() << "no EMPS data at " << kEmpsData;
+  ScratchDir dir;
+  const RunResult r = RunGraybox(
+      "fit '" + kEmpsDir + "/emps_idim.toml' --out '" + (dir / "out") + "'", dir / "log.txt");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJson(dir / "out/result.json");
+  EXPECT_EQ(result["status"]["result"], "success");
+  EXPECT_EQ(result["status"]["exit_code"], 0);
+  EXPECT_TRUE(result["status"]["solver_success"].get<bool>());
+  EXPECT_EQ(result["method"], "equation_error");
+  EXPECT_EQ(result["seed"], 1);
+  EXPECT_FALSE(result["graybox"]["git_revision"].get<std::string>().empty());
+  EXPECT_EQ(result["formulation"]["samples"], "2480");
+  const struct {
+    const char* name;
+    double published;
+  } expected[] = {{"load.mass", kPublishedMass},
+                  {"viscous.fv", kPublishedViscous},
+                  {"coulomb.fc", kPublishedCoulomb},
+                  {"offset.f_asym", kPublishedOffset}};
+  for (const auto& e : expected) {
+    EXPECT_NEAR(Value(result, e.name), e.published, kPublishedTolerance * std::fabs(e.published))
+        << e.name;
+    const Json& p = result["parameters"][e.name];
+    ASSERT_TRUE(p["ci95"].is_array()) << e.name;
+    EXPECT_LT(p["ci95"][0].get<double>(), p["value"].get<double>());
+    EXPECT_GT(p["ci95"][1].get<double>(), p["value"].get<double>());
+  }
+  EXPECT_NEAR(result["parameters"]["load.mass"]["std_error"].get<double>(), kPublishedMassStd,
+              kPublishedTolerance * kPublishedMassStd);
+  const Json& metrics = result["metrics"];
+  EXPECT_NEAR(metrics["estimation"]["equation"]["channels"]["force"]["relative_error_percent"]
+                  .get<double>(),
+              kPublishedRelativeError, kRelativeErrorTolerance);
+  EXPECT_NEAR(metrics["test_pulses"]["equation"]["channels"]["force"]["relative_error_percent"]
+                  .get<double>(),
+              kPublishedCrossTestError, kRelativeErrorTolerance);
+  EXPECT_EQ(metrics["test_pulses"]["role"], "test");
+  EXPECT_TRUE(metrics["estimation"]["simulation"]["ok"].get<bool>());
+  for (const char* plot : {"plots/estimation_outputs.svg", "plots/estimation_residuals.svg",
+                           "plots/estimation_equation.svg", "plots/test_pulses_outputs.svg",
+                           "traces/estimation.csv"}) {
+    EXPECT_TRUE(fs::exists(dir / ("out/" + std::string(plot)))) << plot;
+  }
+  EXPECT_EQ(ReadText(dir / "out/plots/estimation_outputs.svg").rfind("<?xml", 0), 0u);
+}
+
+TEST(Cli, EmpsClosedLoopAgreesWithIdim) {
+  if (!HaveEmps()) GTEST_SKIP() << "no EMPS data";
+  ScratchDir dir;
+  const RunResult r =
+      RunGraybox("fit '" + kEmpsDir + "/emps_closed_loop.toml' --out '" + (dir / "out") + "'",
+                 dir / "log.txt");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJson(dir / "out/result.json");
+  EXPECT_EQ(result["solver"], "ipopt");
+  EXPECT_NEAR(Value(result, "load.mass"), kPublishedMass, kClosedLoopTolerance * kPublishedMass);
+  EXPECT_NEAR(Value(result, "viscous.fv"), kPublishedViscous,
+              kClosedLoopTolerance * kPublishedViscous);
+  EXPECT_NEAR(Value(result, "coulomb.fc"), kPublishedCoulomb,
+              kClosedLoopTolerance * kPublishedCoulomb);
+  EXPECT_NEAR(Value(result, "offset.f_asym"), kPublishedOffset,
+              kClosedLoopTolerance * std::fabs(kPublishedOffset));
+  EXPECT_FALSE(result["parameters"]["controller.kp"]["free"].get<bool>());
+  EXPECT_EQ(Value(result, "controller.kp"), 160.18);
+}
+
+class GeneratedCli : public ::testing::Test {
+ protected:
+  void SetUp() override { WriteText(dir_ / "pushed.csv", PushedCsv()); }
+  RunResult Fit(const std::string& problem_text, const std::string& out = "out",
+                const std::string& flags = "") {
+    WriteText(dir_ / "pushed.toml", problem_text);
+    return RunGraybox("fit pushed.toml --out " + out + " " + flags, dir_ / "log.txt",
+                      dir_.path().string());
+  }
+  ScratchDir dir_;
+};
+
+TEST_F(GeneratedCli, FitRecoversKnownParametersAndSimulateReadsTheResult) {
+  const RunResult r = Fit(PushedProblem(), "out", "--check-derivatives");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJson(dir_ / "out/result.json");
+  EXPECT_NEAR(Value(result, "load.mass"), kTrueMass, kRecoveryTolerance * kTrueMass);
+  EXPECT_NEAR(Value(result, "friction.fv"), kTrueViscous, kRecoveryTolerance * kTrueViscous);
+  ASSERT_TRUE(result["derivative_checks"].is_array());
+  EXPECT_FALSE(result["derivative_checks"].empty());
+  for (const auto& c : result["derivative_checks"]) EXPECT_TRUE(c["ok"].get<bool>()) << c.dump();
+  EXPECT_EQ(result["metrics"]["last"]["role"], "validation");
+  EXPECT_TRUE(result["initial_states"].contains("first"));
+  // simulate with the fitted parameters: exit 0 and the fit carried over.
+  const RunResult s = RunGraybox("simulate pushed.toml --params out/result.json --out sim",
+                                 dir_ / "log2.txt", dir_.path().string());
+  ASSERT_EQ(s.exit_code, 0) << s.output;
+  const Json sim = ReadJson(dir_ / "sim/simulation.json");
+  EXPECT_EQ(Value(sim, "load.mass"), Value(result, "load.mass"));
+  EXPECT_GT(sim["metrics"]["first"]["simulation"]["overall"]["fit_percent"].get<double>(), 99.0);
+  // A TOML parameter file with an unknown name is bad input.
+  WriteText(dir_ / "params.toml", "\"load.mas\" = 2.0\n");
+  const RunResult bad = RunGraybox("simulate pushed.toml --params params.toml --out sim2",
+                                   dir_ / "log3.txt", dir_.path().string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("did you mean 'load.mass'"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(dir_ / "sim2"));
+}
+
+TEST_F(GeneratedCli, SolverFailureExits3AndStillWritesResultJson) {
+  const RunResult r = Fit(PushedProblem() + "[estimation.ipopt]\nmax_iterations = 1\n");
+  ASSERT_EQ(r.exit_code, 3) << r.output;
+  const Json result = ReadJson(dir_ / "out/result.json");
+  EXPECT_EQ(result["status"]["result"], "solver_failure");
+  EXPECT_EQ(result["status"]["exit_code"], 3);
+  EXPECT_FALSE(result["status"]["solver_success"].get<bool>());
+  EXPECT_EQ(result["status"]["solver_status"], "Maximum_Iterations_Exceeded");
+  EXPECT_FALSE(result["status"]["message"].get<std::string>().empty());
+}
+
+TEST_F(GeneratedCli, BadInputExits2AndLeavesEarlierResultsUntouched) {
+  fs::create_directories(dir_ / "out/plots");
+  const std::string earlier = "{\"earlier\": true}\n";
+  WriteText(dir_ / "out/result.json", earlier);
+  WriteText(dir_ / "out/plots/first_outputs.svg", "earlier plot");
+  // A problem-file defect, a data defect (NaN) and a command-line defect.
+  const RunResult typo = Fit(PushedProblem() + "[estimation.ipopt]\ntolerence = 1e-6\n");
+  EXPECT_EQ(typo.exit_code, 2) << typo.output;
+  EXPECT_NE(typo.output.find("pushed.toml:"), std::string::npos) << typo.output;
+  WriteText(dir_ / "pushed.csv", PushedCsv("nan"));
+  const RunResult nan = Fit(PushedProblem());
+  EXPECT_EQ(nan.exit_code, 2) << nan.output;
+  EXPECT_NE(nan.output.find("expected a finite value, got nan"), std::string::npos) << nan.output;
+  const RunResult usage = RunGraybox("fit pushed.toml", dir_ / "log4.txt", dir_.path().string());
+  EXPECT_EQ(usage.exit_code, 2) << usage.output;  // --out is required
+  const RunResult missing =
+      RunGraybox("fit nowhere.toml --out out", dir_ / "log5.txt", dir_.path().string());
+  EXPECT_EQ(missing.exit_code, 2) << missing.output;
+  // Nothing was touched: same files, same contents, no temporaries.
+  EXPECT_EQ(ReadText(dir_ / "out/result.json"), earlier);
+  EXPECT_EQ(ReadText(dir_ / "out/plots/first_outputs.svg"), "earlier plot");
+  int files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir_ / "out")) {
+    files += entry.is_regular_file() ? 1 : 0;
+  }
+  EXPECT_EQ(files, 2);
+}
+
+TEST_F(GeneratedCli, OutputPathThatIsAFileIsBadInput) {
+  WriteText(dir_ / "taken", "a file");
+  const RunResult r = Fit(PushedProblem(), "taken");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(ReadText(dir_ / "taken"), "a file");
+}
+
+}  // namespace
+}  // namespace graybox::apps_testing

@@ -4,4 +4,5 @@ set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 graybox_install_packages
 graybox_build "$GRAYBOX_ROOT/build"
-"$GRAYBOX_ROOT/build/examples/expr_hello"
+cd "$GRAYBOX_ROOT"
+"$GRAYBOX_ROOT/build/apps/graybox" fit problems/emps/emps_idim.toml --out out/emps_idim

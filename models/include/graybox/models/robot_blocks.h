@@ -46,7 +46,8 @@
 // "robot.joint_integrator"  d/dt q = qd, d/dt qd = qdd (seed 000 eq. 1): states q1..qn, qd1..qn,
 //   inputs qdd1..qddn, no parameters. Option "dof" (default 6). With an acceleration block it
 //   forms a forward-dynamics model whose accelerations are signals other blocks can add to
-//   (hybrid.h).
+//   (hybrid.h). Its signals carry the units and typical ranges of revolute KUKA joints (rad,
+//   +-1.5 rad, +-2 rad/s); the equations hold for prismatic joints too (read m, m/s, m/s^2).
 //
 // "robot.kuka_kr300"  the roblue forward model (kuka_kr300.h) as a state-space block,
 //     d/dt q = qd,

@@ -237,6 +237,7 @@ std::string GenerateC(const Function& f, const std::string& symbol) {
 }
 
 CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options) : function_(f) {
+  for (int j = 0; j < f.NumOutputs(); ++j) output_sizes_.push_back(f.OutputSize(j));
   const char* cc_env = std::getenv("CC");
   const std::string compiler =
       !options.compiler.empty() ? options.compiler : (cc_env && *cc_env ? cc_env : "cc");
@@ -298,17 +299,23 @@ EvalStatus CompiledFunction::Evaluate(const double* const* inputs, double* const
   if (native_ == nullptr) return function_.Evaluate(inputs, outputs, ws);
   native_(inputs, outputs);
   EvalStatus status;
-  for (int j = 0; j < function_.NumOutputs() && status.ok; ++j) {
+  for (std::size_t j = 0; j < output_sizes_.size() && status.ok; ++j) {
     if (outputs[j] == nullptr) continue;
-    for (int k = 0; k < function_.OutputSize(j); ++k) {
+    const double* y = outputs[j];
+    const int size = output_sizes_[j];
+    // Fast path: sum-free finiteness test over the whole output, details only on failure.
+    bool finite = true;
+    for (int k = 0; k < size; ++k) finite &= std::isfinite(y[k]);
+    if (finite) continue;
+    for (int k = 0; k < size; ++k) {
       if (!std::isfinite(outputs[j][k])) {
         status.ok = false;
-        status.output = j;
+        status.output = static_cast<int>(j);
         status.index = k;
         status.value = outputs[j][k];
         std::ostringstream os;
-        os << "Function '" << function_.name() << "': output '" << function_.OutputName(j) << "'["
-           << k << "] = " << outputs[j][k];
+        os << "Function '" << function_.name() << "': output '"
+           << function_.OutputName(static_cast<int>(j)) << "'[" << k << "] = " << outputs[j][k];
         status.message = os.str();
         break;
       }

@@ -63,6 +63,7 @@ class CompiledFunction {
   Function function_;
   std::shared_ptr<void> library_;
   NativeFn native_ = nullptr;
+  std::vector<int> output_sizes_;
   std::string fallback_reason_;
 };
 

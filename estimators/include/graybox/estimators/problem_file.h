@@ -14,7 +14,8 @@
 //                  [model.parameters."<instance>.<param>"] value / lower / upper / free / scale
 //   [[data]]       name, file (relative to the problem file), format (mat | csv), sample_time or
 //                  time (a variable), inputs / outputs: model signal -> variable (with scale,
-//                  column / row), splits with roles, initial_state
+//                  column / row, rate = forward difference, or a constant), splits with roles,
+//                  initial_state (numbers or a variable's first sample)
 //   [estimation]   method, solver, seed, substeps, and one table per formulation
 //                  ([estimation.multiple_shooting], [estimation.collocation],
 //                  [estimation.equation_error]) and per solver ([estimation.ipopt],

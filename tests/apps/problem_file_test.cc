@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <regex>
 #include <string>
 #include <vector>
 
@@ -112,14 +111,23 @@ TEST(ShippedProblems, EmpsClosedLoopFixesTheControllerSettings) {
 TEST(ShippedProblems, DocumentationExamplesMatchTheShippedFiles) {
   const std::string doc =
       apps_testing::ReadText(std::string(GRAYBOX_SOURCE_DIR) + "/docs/problem-format.md");
-  const std::regex block("### `problems/emps/([a-z_]+\\.toml)`[^\\n]*\\n\\n```toml\\n([^`]*)```");
+  // Each example: a heading "### `problems/emps/<file>.toml`" followed by a ```toml fence.
+  const std::string heading = "### `problems/emps/";
   int found = 0;
-  for (auto it = std::sregex_iterator(doc.begin(), doc.end(), block); it != std::sregex_iterator();
-       ++it) {
+  for (std::size_t at = doc.find(heading); at != std::string::npos;
+       at = doc.find(heading, at + 1)) {
+    const std::size_t name_begin = at + heading.size();
+    const std::size_t name_end = doc.find('`', name_begin);
+    const std::size_t fence = doc.find("```toml\n", name_end);
+    const std::size_t body_end = doc.find("```", fence + 8);
+    ASSERT_NE(name_end, std::string::npos);
+    ASSERT_NE(fence, std::string::npos);
+    ASSERT_NE(body_end, std::string::npos);
     ++found;
-    const std::string file = (*it)[1].str();
+    const std::string file = doc.substr(name_begin, name_end - name_begin);
     SCOPED_TRACE(file);
-    const Problem doc_problem = ParseProblem((*it)[2].str(), kEmpsDir + "/" + file);
+    const Problem doc_problem =
+        ParseProblem(doc.substr(fence + 8, body_end - fence - 8), kEmpsDir + "/" + file);
     const Problem shipped = LoadProblem(kEmpsDir + "/" + file);
     ASSERT_EQ(doc_problem.built.NumParameters(), shipped.built.NumParameters());
     for (int i = 0; i < shipped.built.NumParameters(); ++i) {

@@ -17,6 +17,7 @@
 #include "graybox/estimators/collocation.h"
 #include "graybox/estimators/covariance.h"
 #include "graybox/estimators/multiple_shooting.h"
+#include "graybox/estimators/weights.h"
 #include "report.h"
 
 namespace graybox::app {
@@ -138,6 +139,9 @@ Eigen::VectorXd OutputWeights(const Problem& problem,
   const auto& given = problem.estimation.output_weights;
   if (given.empty()) return {};
   const models::StateSpaceModel& m = problem.built;
+  std::vector<const Eigen::MatrixXd*> ys;
+  for (const auto& e : experiments) ys.push_back(&e.y);
+  const Eigen::VectorXd from_data = estimators::InverseStdWeights(ys);
   Eigen::VectorXd w(m.NumOutputs());
   for (int j = 0; j < m.NumOutputs(); ++j) {
     auto it = given.find(m.outputs[j].name);
@@ -145,15 +149,7 @@ Eigen::VectorXd OutputWeights(const Problem& problem,
       w[j] = it->second;
       continue;
     }
-    double sum = 0, sum2 = 0;
-    long n = 0;
-    for (const auto& e : experiments) {
-      sum += e.y.col(j).sum();
-      sum2 += e.y.col(j).squaredNorm();
-      n += e.y.rows();
-    }
-    const double mean = sum / n, var = std::max(0.0, sum2 / n - mean * mean);
-    w[j] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
+    w[j] = from_data[j];
   }
   return w;
 }

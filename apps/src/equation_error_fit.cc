@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "graybox/estimators/preprocessing.h"
+#include "graybox/estimators/weights.h"
 #include "graybox/expr/matrix.h"
 
 namespace graybox::app {
@@ -384,6 +385,9 @@ EquationErrorFit BuildEquationErrorFit(const estimators::Problem& problem,
   EquationErrorFit fit{estimators::Nlp(vec(w0), vec(lbw), vec(ubw), names), Eigen::VectorXd(nc),
                        static_cast<int>(total)};
   // Weights: given per channel, else 1 / std of the measured target.
+  std::vector<const Eigen::MatrixXd*> targets;
+  for (const auto& smp : samples) targets.push_back(&smp.target);
+  const Eigen::VectorXd from_data = estimators::InverseStdWeights(targets);
   for (int i = 0; i < nc; ++i) {
     const std::string key =
         model.inverse_inputs.empty() ? m.states[model.residual_states[i]].name : model.channels[i];
@@ -392,13 +396,7 @@ EquationErrorFit BuildEquationErrorFit(const estimators::Problem& problem,
       fit.weights[i] = w->second;
       continue;
     }
-    double sum = 0.0, sum2 = 0.0;
-    for (const auto& s : samples) {
-      sum += s.target.col(i).sum();
-      sum2 += s.target.col(i).squaredNorm();
-    }
-    const double mean = sum / total, var = std::max(0.0, sum2 / total - mean * mean);
-    fit.weights[i] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
+    fit.weights[i] = from_data[i];
   }
   // One element per sample; z = the scaled free parameters.
   const std::vector<Expr> z = Expr::Symbols("theta", nf);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "graybox/estimators/integrators.h"
+#include "graybox/estimators/weights.h"
 
 namespace graybox::estimators {
 
@@ -61,22 +62,6 @@ double BasisDerivative(const Eigen::VectorXd& nodes, int r, double tau) {
   return sum;
 }
 
-Eigen::VectorXd WeightsFromStd(const std::vector<ExperimentData>& experiments, int ny) {
-  Eigen::VectorXd w(ny);
-  for (int j = 0; j < ny; ++j) {
-    double sum = 0, sum2 = 0;
-    long n = 0;
-    for (const auto& ex : experiments) {
-      sum += ex.y.col(j).sum();
-      sum2 += ex.y.col(j).squaredNorm();
-      n += ex.y.rows();
-    }
-    const double mean = sum / n, var = std::max(0.0, sum2 / n - mean * mean);
-    w[j] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
-  }
-  return w;
-}
-
 }  // namespace
 
 Eigen::VectorXd CollocationPoints(CollocationScheme scheme, int degree) {
@@ -127,7 +112,11 @@ CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
   const ParameterMap map = ParameterMap::FromModel(model.parameters);
   const int nf = map.NumFree();
   Eigen::VectorXd weights = options.output_weights;
-  if (weights.size() == 0) weights = WeightsFromStd(experiments, ny);
+  if (weights.size() == 0) {
+    std::vector<const Eigen::MatrixXd*> ys;
+    for (const auto& ex : experiments) ys.push_back(&ex.y);
+    weights = InverseStdWeights(ys);
+  }
   // Nodes tau_0 = 0, tau_1..tau_d and the matrices of the collocation equations.
   const Eigen::VectorXd tau = CollocationPoints(options.scheme, deg);
   Eigen::VectorXd nodes(deg + 1);

@@ -1,5 +1,7 @@
 #include "graybox/estimators/equation_error.h"
 
+#include "graybox/estimators/weights.h"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -9,24 +11,6 @@ using expr::Expr;
 using expr::Function;
 
 namespace {
-
-// Weights 1 / std of each column of the stacked targets (1 for a constant column).
-Eigen::VectorXd StdWeights(const std::vector<const Eigen::MatrixXd*>& targets, int n) {
-  Eigen::VectorXd w(n);
-  for (int j = 0; j < n; ++j) {
-    double sum = 0, sum2 = 0;
-    long count = 0;
-    for (const auto* t : targets) {
-      sum += t->col(j).sum();
-      sum2 += t->col(j).squaredNorm();
-      count += t->rows();
-    }
-    const double mean = sum / std::max<long>(count, 1);
-    const double var = std::max(0.0, sum2 / std::max<long>(count, 1) - mean * mean);
-    w[j] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
-  }
-  return w;
-}
 
 // The free parameters as scaled symbols z, spliced into the full parameter vector.
 std::vector<Expr> ParameterExprs(const ParameterMap& map, std::vector<Expr>* z) {
@@ -78,7 +62,7 @@ EquationErrorProblem BuildInverseDynamicsEquationError(
     }
     taus.push_back(&d.tau);
   }
-  if (weights.size() == 0) weights = StdWeights(taus, n);
+  if (weights.size() == 0) weights = InverseStdWeights(taus);
   if (weights.size() != n) {
     throw std::invalid_argument("BuildInverseDynamicsEquationError: expected " + std::to_string(n) +
                                 " weights, got " + std::to_string(weights.size()));
@@ -147,7 +131,7 @@ EquationErrorProblem BuildStateEquationError(const models::StateSpaceModel& mode
   }
   std::vector<const Eigen::MatrixXd*> targets;
   for (const auto& s : selected) targets.push_back(&s);
-  if (weights.size() == 0) weights = StdWeights(targets, nc);
+  if (weights.size() == 0) weights = InverseStdWeights(targets);
   const ParameterMap map = ParameterMap::FromModel(model.parameters);
   EquationErrorProblem problem{VariablesOf(map), map, weights};
   std::vector<Expr> z;

@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "graybox/estimators/integrators.h"
+#include "graybox/estimators/weights.h"
 
 namespace graybox::estimators {
 
@@ -133,19 +134,9 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
   // Output weights: 1 / std per channel.
   Eigen::VectorXd weights = options.output_weights;
   if (weights.size() == 0) {
-    weights.resize(ny);
-    for (int j = 0; j < ny; ++j) {
-      double sum = 0, sum2 = 0;
-      long n = 0;
-      for (const auto& ex : experiments) {
-        sum += ex.y.col(j).sum();
-        sum2 += ex.y.col(j).squaredNorm();
-        n += ex.y.rows();
-      }
-      const double mean = sum / n;
-      const double var = std::max(0.0, sum2 / n - mean * mean);
-      weights[j] = var > 0.0 ? 1.0 / std::sqrt(var) : 1.0;
-    }
+    std::vector<const Eigen::MatrixXd*> ys;
+    for (const auto& ex : experiments) ys.push_back(&ex.y);
+    weights = InverseStdWeights(ys);
   } else if (weights.size() != ny) {
     throw std::invalid_argument("MultipleShootingOptions.output_weights: expected " +
                                 std::to_string(ny) + " entries, got " +

@@ -23,9 +23,6 @@ using expr::Function;
 // Same scalar code on doubles and through the tape: differences are rounding only, and the tape
 // may fuse or reorder nothing that changes IEEE results, so agreement is to a few ulps.
 constexpr double kDoubleVersusExprTolerance = 1e-12;
-// Central differences at the default step: ~1e-10 relative for smooth blocks, so 1e-6 leaves a
-// wide margin while catching any wrong partial.
-constexpr double kFiniteDifferenceTolerance = 1e-6;
 constexpr int kPointsPerBlock = 3;
 
 class RegisteredBlock : public ::testing::TestWithParam<std::string> {
@@ -60,40 +57,6 @@ Point RandomPoint(const Block& b, std::mt19937& rng) {
     pt.p[i] = std::min(par.upper, std::max(par.lower, v));
   }
   return pt;
-}
-
-// Typical magnitude of every entry: max(|typical_min|, |typical_max|) of signals,
-// DefaultParameterScale (model.h) of parameters.
-Point Scales(const Block& b) {
-  auto signals = [](const std::vector<SignalInfo>& s) {
-    Eigen::VectorXd v(static_cast<int>(s.size()));
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      v[static_cast<int>(i)] = std::max(std::fabs(s[i].typical_min), std::fabs(s[i].typical_max));
-    }
-    return v;
-  };
-  Point scale{signals(b.info().states), signals(b.info().inputs),
-              Eigen::VectorXd(b.NumParameters())};
-  for (int i = 0; i < b.NumParameters(); ++i)
-    scale.p[i] = DefaultParameterScale(b.info().parameters[i]);
-  return scale;
-}
-
-// The block as a Function of the scaled (x~, u~, p~), x = s.x o x~ etc., so that the checker's
-// step (relative to max(1, |entry|)) is relative to each quantity's own size.
-Function AsScaledFunction(const Block& b, const Point& s) {
-  const std::vector<Expr> xs = Expr::Symbols("x", b.NumStates());
-  const std::vector<Expr> us = Expr::Symbols("u", b.NumInputs());
-  const std::vector<Expr> ps = Expr::Symbols("p", b.NumParameters());
-  auto scaled = [](const std::vector<Expr>& v, const Eigen::VectorXd& k) {
-    std::vector<Expr> out;
-    for (std::size_t i = 0; i < v.size(); ++i) out.push_back(k[static_cast<int>(i)] * v[i]);
-    return out;
-  };
-  const std::vector<Expr> x = scaled(xs, s.x), u = scaled(us, s.u), p = scaled(ps, s.p);
-  std::vector<Expr> xdot(b.NumStates()), y(b.NumOutputs());
-  b.Evaluate(BlockArgs<Expr>{x.data(), u.data(), p.data(), xdot.data(), y.data()});
-  return Function(b.info().type, {{"x", xs}, {"u", us}, {"p", ps}}, {{"xdot", xdot}, {"y", y}});
 }
 
 // The block as a Function of (x, u, p) with outputs "xdot" and "y".
@@ -163,25 +126,8 @@ TEST_P(RegisteredBlock, DoublesEqualExpressions) {
 }
 
 TEST_P(RegisteredBlock, DerivativesMatchFiniteDifferences) {
-  const auto block = Make();
-  const Point scale = Scales(*block);
-  const Function f = AsScaledFunction(*block, scale);
-  std::mt19937 rng(testing::TestSeed());
-  expr::DerivativeCheckOptions options;
-  options.tolerance = kFiniteDifferenceTolerance;
-  for (int k = 0; k < kPointsPerBlock; ++k) {
-    Point pt = RandomPoint(*block, rng);
-    pt.x = pt.x.cwiseQuotient(scale.x);
-    pt.u = pt.u.cwiseQuotient(scale.u);
-    pt.p = pt.p.cwiseQuotient(scale.p);
-    for (const char* out : {"xdot", "y"}) {
-      for (const char* in : {"x", "u", "p"}) {
-        if (f.OutputSize(f.OutputIndex(out)) == 0 || f.InputSize(f.InputIndex(in)) == 0) continue;
-        const auto check = expr::CheckJacobian(f, out, in, {pt.x, pt.u, pt.p}, options);
-        EXPECT_TRUE(check.ok) << check.FullReport();
-      }
-    }
-  }
+  // Scaled coordinates, so small SI parameters get proportionate steps (see test_util.h).
+  testing::ExpectBlockDerivativesMatch(*Make(), testing::TestSeed());
 }
 
 std::vector<std::string> RegisteredTypes() { return BlockRegistry::Global().Types(); }

@@ -98,67 +98,6 @@ Linear Linearise(const Block& b, const VectorXd& p) {
   return l;
 }
 
-// Derivatives of xdot and y against central differences in scaled coordinates x = s_x x~,
-// u = s_u u~, p = s_p p~ (s: max(|typical_min|, |typical_max|) for signals, DefaultParameterScale
-// for parameters), so the checker's step is relative to each quantity's size. The shared suite
-// steps by 6e-6 absolutely for |p| < 1, which makes its central difference of 1/J at J = 1e-4
-// kg m^2 wrong by (6e-6/1e-4)^2 = 4e-3 relative (a truncation error of the check, not of the
-// block); see the report of drive.two_mass and drive.dc_motor there.
-void ExpectDerivativesMatch(const Block& b, std::uint32_t seed) {
-  auto scales = [](const std::vector<SignalInfo>& signals) {
-    VectorXd s(static_cast<int>(signals.size()));
-    for (std::size_t i = 0; i < signals.size(); ++i) {
-      s[static_cast<int>(i)] =
-          std::max(std::fabs(signals[i].typical_min), std::fabs(signals[i].typical_max));
-    }
-    return s;
-  };
-  const VectorXd sx = scales(b.info().states), su = scales(b.info().inputs);
-  VectorXd sp(b.NumParameters());
-  for (int i = 0; i < b.NumParameters(); ++i) {
-    sp[i] = DefaultParameterScale(b.info().parameters[i]);
-  }
-  const std::vector<Expr> xs = Expr::Symbols("x", b.NumStates());
-  const std::vector<Expr> us = Expr::Symbols("u", b.NumInputs());
-  const std::vector<Expr> ps = Expr::Symbols("p", b.NumParameters());
-  auto scaled = [](const std::vector<Expr>& v, const VectorXd& s) {
-    std::vector<Expr> out;
-    for (std::size_t i = 0; i < v.size(); ++i) out.push_back(s[static_cast<int>(i)] * v[i]);
-    return out;
-  };
-  const std::vector<Expr> x = scaled(xs, sx), u = scaled(us, su), p = scaled(ps, sp);
-  std::vector<Expr> xdot(b.NumStates()), y(b.NumOutputs());
-  b.Evaluate(BlockArgs<Expr>{x.data(), u.data(), p.data(), xdot.data(), y.data()});
-  const expr::Function f(b.info().type, {{"x", xs}, {"u", us}, {"p", ps}},
-                         {{"xdot", xdot}, {"y", y}});
-  std::mt19937 rng(seed);
-  auto sample = [&](const std::vector<SignalInfo>& signals, const VectorXd& s) {
-    VectorXd v(static_cast<int>(signals.size()));
-    for (std::size_t i = 0; i < signals.size(); ++i) {
-      const int k = static_cast<int>(i);
-      v[k] = testing::Uniform(rng, signals[i].typical_min, signals[i].typical_max) / s[k];
-    }
-    return v;
-  };
-  for (int trial = 0; trial < 3; ++trial) {
-    const VectorXd xt = sample(b.info().states, sx), ut = sample(b.info().inputs, su);
-    VectorXd pt(b.NumParameters());
-    for (int i = 0; i < b.NumParameters(); ++i) {
-      const ParameterInfo& par = b.info().parameters[i];
-      double v = par.nominal * (1.0 + 0.1 * testing::Uniform(rng, -1.0, 1.0));
-      if (par.nominal == 0.0) v = 0.1 * testing::Uniform(rng, -1.0, 1.0);
-      pt[i] = std::min(par.upper, std::max(par.lower, v)) / sp[i];
-    }
-    for (const char* out : {"xdot", "y"}) {
-      for (const char* in : {"x", "u", "p"}) {
-        if (f.OutputSize(f.OutputIndex(out)) == 0 || f.InputSize(f.InputIndex(in)) == 0) continue;
-        const auto check = expr::CheckJacobian(f, out, in, {xt, ut, pt});
-        EXPECT_TRUE(check.ok) << b.info().type << ": " << check.FullReport();
-      }
-    }
-  }
-}
-
 // ---- drive.two_mass -----------------------------------------------------------------------------
 
 TEST(TwoMass, NominalValuesAreTheSeedsConstants) {
@@ -590,14 +529,14 @@ TEST(Drives, EveryBlockOfTheHeaderIsRegistered) {
 
 TEST(Drives, DerivativesMatchFiniteDifferencesInScaledCoordinates) {
   for (const std::string& type : DriveTypes()) {
-    ExpectDerivativesMatch(*Make(type, BlockRegistry::Global().TestOptions(type)),
-                           testing::TestSeed());
-    ExpectDerivativesMatch(*Make(type), testing::TestSeed());
+    testing::ExpectBlockDerivativesMatch(*Make(type, BlockRegistry::Global().TestOptions(type)),
+                                         testing::TestSeed());
+    testing::ExpectBlockDerivativesMatch(*Make(type), testing::TestSeed());
   }
   BlockOptions motor;
   motor.numbers["angle_state"] = {0};
   motor.numbers["load_input"] = {1};
-  ExpectDerivativesMatch(*Make(kDcMotorDrive, motor), testing::TestSeed());
+  testing::ExpectBlockDerivativesMatch(*Make(kDcMotorDrive, motor), testing::TestSeed());
 }
 
 }  // namespace

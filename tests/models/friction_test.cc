@@ -81,66 +81,6 @@ VectorXd Rk4Step(const Block& b, double t, const VectorXd& x, const InputFunctio
   return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
 }
 
-// Derivatives of xdot and y checked against central differences in scaled coordinates
-// x = s_x x~, u = s_u u~, p = s_p p~, with s the typical magnitude of each entry
-// (max(|typical_min|, |typical_max|) for signals, DefaultParameterScale for parameters): the
-// checker's step is then relative to each quantity's size (the shared suite steps by 6e-6
-// absolutely below 1, which is too coarse for parameters such as an inertia of 1e-4 kg m^2).
-void ExpectDerivativesMatch(const Block& b, std::uint32_t seed) {
-  auto scales = [](const std::vector<SignalInfo>& signals) {
-    VectorXd s(static_cast<int>(signals.size()));
-    for (std::size_t i = 0; i < signals.size(); ++i) {
-      s[static_cast<int>(i)] =
-          std::max(std::fabs(signals[i].typical_min), std::fabs(signals[i].typical_max));
-    }
-    return s;
-  };
-  const VectorXd sx = scales(b.info().states), su = scales(b.info().inputs);
-  VectorXd sp(b.NumParameters());
-  for (int i = 0; i < b.NumParameters(); ++i) {
-    sp[i] = DefaultParameterScale(b.info().parameters[i]);
-  }
-  const std::vector<Expr> xs = Expr::Symbols("x", b.NumStates());
-  const std::vector<Expr> us = Expr::Symbols("u", b.NumInputs());
-  const std::vector<Expr> ps = Expr::Symbols("p", b.NumParameters());
-  auto scaled = [](const std::vector<Expr>& v, const VectorXd& s) {
-    std::vector<Expr> out;
-    for (std::size_t i = 0; i < v.size(); ++i) out.push_back(s[static_cast<int>(i)] * v[i]);
-    return out;
-  };
-  const std::vector<Expr> x = scaled(xs, sx), u = scaled(us, su), p = scaled(ps, sp);
-  std::vector<Expr> xdot(b.NumStates()), y(b.NumOutputs());
-  b.Evaluate(BlockArgs<Expr>{x.data(), u.data(), p.data(), xdot.data(), y.data()});
-  const expr::Function f(b.info().type, {{"x", xs}, {"u", us}, {"p", ps}},
-                         {{"xdot", xdot}, {"y", y}});
-  std::mt19937 rng(seed);
-  auto sample = [&](const std::vector<SignalInfo>& signals, const VectorXd& s) {
-    VectorXd v(static_cast<int>(signals.size()));
-    for (std::size_t i = 0; i < signals.size(); ++i) {
-      const int k = static_cast<int>(i);
-      v[k] = testing::Uniform(rng, signals[i].typical_min, signals[i].typical_max) / s[k];
-    }
-    return v;
-  };
-  for (int trial = 0; trial < 3; ++trial) {
-    const VectorXd xt = sample(b.info().states, sx), ut = sample(b.info().inputs, su);
-    VectorXd pt(b.NumParameters());
-    for (int i = 0; i < b.NumParameters(); ++i) {
-      const ParameterInfo& par = b.info().parameters[i];
-      double v = par.nominal * (1.0 + 0.1 * testing::Uniform(rng, -1.0, 1.0));
-      if (par.nominal == 0.0) v = 0.1 * testing::Uniform(rng, -1.0, 1.0);
-      pt[i] = std::min(par.upper, std::max(par.lower, v)) / sp[i];
-    }
-    for (const char* out : {"xdot", "y"}) {
-      for (const char* in : {"x", "u", "p"}) {
-        if (f.OutputSize(f.OutputIndex(out)) == 0 || f.InputSize(f.InputIndex(in)) == 0) continue;
-        const auto check = expr::CheckJacobian(f, out, in, {xt, ut, pt});
-        EXPECT_TRUE(check.ok) << b.info().type << ": " << check.FullReport();
-      }
-    }
-  }
-}
-
 std::vector<std::string> FrictionTypes() {
   std::vector<std::string> types;
   for (const auto& t : BlockRegistry::Global().Types()) {
@@ -286,7 +226,7 @@ TEST_F(StribeckTest, OtherExponentsAreSmoothAtZero) {
     const double expected = kFc + (kFs - kFc) * std::exp(-power) + kFv * r * kVs;
     constexpr double kSmoothingTolerance = 1e-7;  // (fs - fc) power (a/2) 1e-6 / r^2 < 5e-8
     EXPECT_NEAR(Output(*block, {}, Scalar1(r * kVs), p_), expected, kSmoothingTolerance);
-    ExpectDerivativesMatch(*block, testing::TestSeed());
+    testing::ExpectBlockDerivativesMatch(*block, testing::TestSeed());
   }
 }
 
@@ -334,7 +274,7 @@ TEST(Friction, RippleIsAFourierSeriesInPosition) {
     EXPECT_NEAR(Output(*block, {}, Scalar1(q), p), expected, kPhaseRoundoff);
     EXPECT_NEAR(Output(*block, {}, Scalar1(q + 0.5), p), expected, 1e-13) << "periodic";
   }
-  ExpectDerivativesMatch(*block, testing::TestSeed());
+  testing::ExpectBlockDerivativesMatch(*block, testing::TestSeed());
 }
 
 // f_a and f_b of roblue, SOURCE.md (roblue computes the term but leaves it out of its sum).
@@ -606,22 +546,22 @@ TEST(Friction, InvalidOptionValuesAreRejected) {
 // ---- Derivatives --------------------------------------------------------------------------------
 
 // Every friction block, with its test options and with the variants the shared suite does not
-// build, in scaled coordinates (see ExpectDerivativesMatch).
+// build, in scaled coordinates (see testing::ExpectBlockDerivativesMatch).
 TEST(Friction, DerivativesMatchFiniteDifferencesInScaledCoordinates) {
   for (const std::string& type : FrictionTypes()) {
-    ExpectDerivativesMatch(*Make(type, BlockRegistry::Global().TestOptions(type)),
-                           testing::TestSeed());
+    testing::ExpectBlockDerivativesMatch(*Make(type, BlockRegistry::Global().TestOptions(type)),
+                                         testing::TestSeed());
   }
   BlockOptions fixed;
   fixed.numbers["steepness"] = {30.0};
-  ExpectDerivativesMatch(*Make(kCoulombFriction, fixed), testing::TestSeed());
+  testing::ExpectBlockDerivativesMatch(*Make(kCoulombFriction, fixed), testing::TestSeed());
   BlockOptions lugre;
   lugre.numbers["exponent"] = {1.0};
-  ExpectDerivativesMatch(*Make(kLuGreFriction, lugre), testing::TestSeed());
+  testing::ExpectBlockDerivativesMatch(*Make(kLuGreFriction, lugre), testing::TestSeed());
   BlockOptions kuka;
   kuka.numbers["joint"] = {4};
   kuka.numbers["steepness"] = {100.0};
-  ExpectDerivativesMatch(*Make(kKukaFriction, kuka), testing::TestSeed());
+  testing::ExpectBlockDerivativesMatch(*Make(kKukaFriction, kuka), testing::TestSeed());
 }
 
 }  // namespace

@@ -11,6 +11,12 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <gtest/gtest.h>
+
+#include "graybox/expr/derivative_check.h"
+#include "graybox/expr/function.h"
+#include "graybox/models/block.h"
+#include "graybox/models/model.h"
 #include "graybox/models/rigid_body_dynamics.h"
 #include "graybox/models/serial_chain.h"
 
@@ -106,6 +112,66 @@ void Rk4Step(const Accel& accel, double h, Vector* q, Vector* qd) {
   const Vector a4 = accel(q4, v4);
   *q = q0 + (h / 6.0) * (v0 + 2.0 * v2 + 2.0 * v3 + v4);
   *qd = v0 + (h / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+}
+
+// Derivatives of a block's xdot and y with respect to states, inputs and parameters against
+// central differences (expr::CheckJacobian, default tolerance) at three random points, in scaled
+// coordinates x = s_x x~, u = s_u u~, p = s_p p~ with s the typical magnitude of each entry
+// (max(|typical_min|, |typical_max|) for signals, DefaultParameterScale for parameters), so the
+// checker's step is relative to each quantity's size (an inertia of 1e-4 kg m^2 included).
+inline void ExpectBlockDerivativesMatch(const Block& b, std::uint32_t seed) {
+  auto scales = [](const std::vector<SignalInfo>& signals) {
+    Eigen::VectorXd s(static_cast<int>(signals.size()));
+    for (std::size_t i = 0; i < signals.size(); ++i) {
+      s[static_cast<int>(i)] =
+          std::max(std::fabs(signals[i].typical_min), std::fabs(signals[i].typical_max));
+    }
+    return s;
+  };
+  const Eigen::VectorXd sx = scales(b.info().states), su = scales(b.info().inputs);
+  Eigen::VectorXd sp(b.NumParameters());
+  for (int i = 0; i < b.NumParameters(); ++i) {
+    sp[i] = DefaultParameterScale(b.info().parameters[i]);
+  }
+  const std::vector<expr::Expr> xs = expr::Expr::Symbols("x", b.NumStates());
+  const std::vector<expr::Expr> us = expr::Expr::Symbols("u", b.NumInputs());
+  const std::vector<expr::Expr> ps = expr::Expr::Symbols("p", b.NumParameters());
+  auto scaled = [](const std::vector<expr::Expr>& v, const Eigen::VectorXd& s) {
+    std::vector<expr::Expr> out;
+    for (std::size_t i = 0; i < v.size(); ++i) out.push_back(s[static_cast<int>(i)] * v[i]);
+    return out;
+  };
+  const std::vector<expr::Expr> x = scaled(xs, sx), u = scaled(us, su), p = scaled(ps, sp);
+  std::vector<expr::Expr> xdot(b.NumStates()), y(b.NumOutputs());
+  b.Evaluate(BlockArgs<expr::Expr>{x.data(), u.data(), p.data(), xdot.data(), y.data()});
+  const expr::Function f(b.info().type, {{"x", xs}, {"u", us}, {"p", ps}},
+                         {{"xdot", xdot}, {"y", y}});
+  std::mt19937 rng(seed);
+  auto sample = [&](const std::vector<SignalInfo>& signals, const Eigen::VectorXd& s) {
+    Eigen::VectorXd v(static_cast<int>(signals.size()));
+    for (std::size_t i = 0; i < signals.size(); ++i) {
+      const int k = static_cast<int>(i);
+      v[k] = Uniform(rng, signals[i].typical_min, signals[i].typical_max) / s[k];
+    }
+    return v;
+  };
+  for (int trial = 0; trial < 3; ++trial) {
+    const Eigen::VectorXd xt = sample(b.info().states, sx), ut = sample(b.info().inputs, su);
+    Eigen::VectorXd pt(b.NumParameters());
+    for (int i = 0; i < b.NumParameters(); ++i) {
+      const ParameterInfo& par = b.info().parameters[i];
+      double v = par.nominal * (1.0 + 0.1 * Uniform(rng, -1.0, 1.0));
+      if (par.nominal == 0.0) v = 0.1 * Uniform(rng, -1.0, 1.0);
+      pt[i] = std::min(par.upper, std::max(par.lower, v)) / sp[i];
+    }
+    for (const char* out : {"xdot", "y"}) {
+      for (const char* in : {"x", "u", "p"}) {
+        if (f.OutputSize(f.OutputIndex(out)) == 0 || f.InputSize(f.InputIndex(in)) == 0) continue;
+        const auto check = expr::CheckJacobian(f, out, in, {xt, ut, pt});
+        EXPECT_TRUE(check.ok) << b.info().type << ": " << check.FullReport();
+      }
+    }
+  }
 }
 
 }  // namespace graybox::models::testing

@@ -101,8 +101,10 @@ void SetCounters(benchmark::State& state, const Function& f, std::int64_t points
   state.counters["registers"] = f.NumRegisters();
 }
 
-// Evaluates f on one point after another (inputs vary so nothing is hoisted).
-void RunTapeSingle(benchmark::State& state, const Function& f) {
+// Evaluates f (through `evaluator`: the Function itself or its CompiledFunction) on one point
+// after another; inputs vary so nothing is hoisted, extra inputs (Reverse's seeds) are ones.
+template <typename Evaluator>
+void RunSingle(benchmark::State& state, const Function& f, const Evaluator& evaluator) {
   const Eigen::MatrixXd x = Points(256);
   Workspace ws = f.MakeWorkspace();
   std::vector<Eigen::VectorXd> out(f.NumOutputs());
@@ -111,7 +113,6 @@ void RunTapeSingle(benchmark::State& state, const Function& f) {
     out[j].resize(f.OutputSize(j));
     out_ptr[j] = out[j].data();
   }
-  // Extra inputs (adjoint seeds of Reverse) are set to ones.
   std::vector<Eigen::VectorXd> extra;
   for (int i = 1; i < f.NumInputs(); ++i) extra.push_back(Eigen::VectorXd::Ones(f.InputSize(i)));
   std::vector<const double*> in(f.NumInputs());
@@ -119,11 +120,13 @@ void RunTapeSingle(benchmark::State& state, const Function& f) {
   std::int64_t p = 0;
   for (auto _ : state) {
     in[0] = x.col(p++ % x.cols()).data();
-    benchmark::DoNotOptimize(f.Evaluate(in.data(), out_ptr.data(), &ws));
+    benchmark::DoNotOptimize(evaluator.Evaluate(in.data(), out_ptr.data(), &ws));
     benchmark::ClobberMemory();
   }
   SetCounters(state, f, state.iterations());
 }
+
+void RunTapeSingle(benchmark::State& state, const Function& f) { RunSingle(state, f, f); }
 
 void RunNativeSingle(benchmark::State& state, const Function& f) {
   const CompiledFunction& cf = Compiled(f);
@@ -131,25 +134,7 @@ void RunNativeSingle(benchmark::State& state, const Function& f) {
     state.SkipWithError(cf.FallbackReason().c_str());
     return;
   }
-  const Eigen::MatrixXd x = Points(256);
-  Workspace ws = f.MakeWorkspace();
-  std::vector<Eigen::VectorXd> out(f.NumOutputs());
-  std::vector<double*> out_ptr(f.NumOutputs());
-  for (int j = 0; j < f.NumOutputs(); ++j) {
-    out[j].resize(f.OutputSize(j));
-    out_ptr[j] = out[j].data();
-  }
-  std::vector<Eigen::VectorXd> extra;
-  for (int i = 1; i < f.NumInputs(); ++i) extra.push_back(Eigen::VectorXd::Ones(f.InputSize(i)));
-  std::vector<const double*> in(f.NumInputs());
-  for (int i = 1; i < f.NumInputs(); ++i) in[i] = extra[i - 1].data();
-  std::int64_t p = 0;
-  for (auto _ : state) {
-    in[0] = x.col(p++ % x.cols()).data();
-    benchmark::DoNotOptimize(cf.Evaluate(in.data(), out_ptr.data(), &ws));
-    benchmark::ClobberMemory();
-  }
-  SetCounters(state, f, state.iterations());
+  RunSingle(state, f, cf);
 }
 
 void RunTapeBatch(benchmark::State& state, const Function& f) {

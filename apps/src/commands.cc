@@ -17,6 +17,7 @@
 #include "graybox/estimators/collocation.h"
 #include "graybox/estimators/covariance.h"
 #include "graybox/estimators/multiple_shooting.h"
+#include "graybox/estimators/single_shooting.h"
 #include "graybox/estimators/weights.h"
 #include "report.h"
 
@@ -287,17 +288,29 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
     f.summary.emplace_back(
         "scheme", options.scheme == estimators::CollocationScheme::kRadau ? "radau" : "legendre");
     f.summary.emplace_back("degree", std::to_string(options.degree));
+  } else if (spec.method == "single_shooting") {
+    estimators::SingleShootingOptions options;
+    options.integrator = spec.integrator;
+    options.output_weights = weights;
+    options.fix_initial_state = spec.multiple_shooting.fix_initial_state;
+    f.shooting = std::make_shared<estimators::ShootingProblem>(
+        estimators::BuildSingleShooting(m, *ex, options));
+    f.summary.emplace_back("integrator",
+                           estimators::IntegrationMethodName(options.integrator.method));
+    f.summary.emplace_back("fix_initial_state", options.fix_initial_state ? "true" : "false");
   } else {
     estimators::MultipleShootingOptions options = spec.multiple_shooting;
     options.substeps = substeps;
     options.output_weights = weights;
-    if (spec.method == "single_shooting") {
-      int longest = 1;
-      for (const auto& e : *ex) longest = std::max(longest, static_cast<int>(e.u.rows()));
-      options.segment_length = longest;
-    }
     f.shooting = std::make_shared<estimators::ShootingProblem>(
         estimators::BuildMultipleShooting(m, *ex, options));
+    f.summary.emplace_back("segment_length", std::to_string(options.segment_length));
+    f.summary.emplace_back("continuity",
+                           options.continuity_as_constraints ? "constraints" : "residuals");
+    f.summary.emplace_back("node_guess", spec.node_guess);
+    f.summary.emplace_back("fix_initial_state", options.fix_initial_state ? "true" : "false");
+  }
+  if (f.shooting) {
     const auto sp = f.shooting;
     f.nlp = &sp->nlp;
     f.parameters = [sp](const Eigen::VectorXd& w) { return sp->Parameters(w); };
@@ -312,20 +325,24 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
       }
       return x0;
     };
-    f.summary.emplace_back("segment_length", std::to_string(options.segment_length));
-    f.summary.emplace_back("continuity",
-                           options.continuity_as_constraints ? "constraints" : "residuals");
-    f.summary.emplace_back("node_guess", spec.node_guess);
-    f.summary.emplace_back("fix_initial_state", options.fix_initial_state ? "true" : "false");
   }
   const Eigen::VectorXd used_weights =
       f.shooting ? f.shooting->output_weights : f.collocation->output_weights;
-  f.covariance = [initial = f.initial_states, ex, &m, substeps, used_weights](
+  // The covariance simulates as the formulation does: the RK4 map of multiple shooting, else the
+  // problem's integrator.
+  estimators::IntegratorOptions integration = spec.integrator;
+  if (spec.method == "multiple_shooting") {
+    integration = estimators::IntegratorOptions();
+    integration.rk4_substeps = substeps;
+  }
+  const std::shared_ptr<const estimators::Integrator> integrator =
+      estimators::MakeIntegrator(m, ex->at(0).dt, integration);
+  f.covariance = [initial = f.initial_states, ex, integrator, used_weights](
                      const Eigen::VectorXd& w, const Eigen::VectorXd& p) {
     const auto x0 = initial(w);
     std::vector<Eigen::VectorXd> states;
     for (const auto& e : *ex) states.push_back(x0.at(e.name));
-    return estimators::SimulationCovariance(m, *ex, p, states, used_weights, substeps);
+    return estimators::SimulationCovariance(*integrator, *ex, p, states, used_weights);
   };
   long samples = 0;
   for (const auto& e : *ex) samples += e.u.rows();

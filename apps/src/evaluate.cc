@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "app.h"
-#include "graybox/estimators/integrators.h"
+#include "graybox/estimators/integrator_factory.h"
 #include "graybox/expr/derivative_check.h"
 
 namespace graybox::app {
@@ -25,7 +25,8 @@ SplitEvaluation EvaluateSimulation(const estimators::Problem& problem,
   ev.measured = e.y;
   ev.x0 = x0;
   const estimators::Trajectory traj =
-      estimators::SimulateRk4(problem.built, x0, e.u, p, e.dt, problem.estimation.substeps);
+      estimators::MakeIntegrator(problem.built, e.dt, problem.estimation.integrator)
+          ->Simulate(x0, e.u, p);
   ev.simulated = traj.y;
   ev.simulation_ok = traj.ok;
   ev.failed_at = traj.failed_at;

@@ -132,12 +132,13 @@ std::string UncertaintyReport::FullReport() const {
   return os.str();
 }
 
-UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
+UncertaintyReport SimulationCovariance(const Integrator& integrator,
                                        const std::vector<ExperimentData>& experiments,
                                        const Eigen::VectorXd& p,
                                        const std::vector<Eigen::VectorXd>& initial_states,
-                                       const Eigen::VectorXd& output_weights, int substeps,
+                                       const Eigen::VectorXd& output_weights,
                                        const CovarianceOptions& options) {
+  const models::StateSpaceModel& model = integrator.model();
   const int nx = model.NumStates(), ny = model.NumOutputs();
   std::vector<int> free;
   for (int i = 0; i < model.NumParameters(); ++i) {
@@ -146,28 +147,10 @@ UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
   const int nf = static_cast<int>(free.size());
   if (initial_states.size() != experiments.size() || output_weights.size() != ny) {
     throw std::invalid_argument(
-        "SimulationCovariance: expected one initial state per experiment "
-        "and " +
-        std::to_string(ny) + " output weights");
+        "SimulationCovariance: expected " + std::to_string(experiments.size()) +
+        " initial states and " + std::to_string(ny) + " output weights, got " +
+        std::to_string(initial_states.size()) + " and " + std::to_string(output_weights.size()));
   }
-  const expr::Function step = MakeRk4StepFunction(model, experiments.at(0).dt, substeps);
-  const expr::Function jx = step.Jacobian("x_next", "x"), jp = step.Jacobian("x_next", "p");
-  const expr::Function hx = model.output.Jacobian("y", "x"), hp = model.output.Jacobian("y", "p");
-  auto dense = [](const expr::Function& f, const double* const* in, expr::Workspace* ws,
-                  Eigen::VectorXd* nz, Eigen::MatrixXd* out) {
-    double* o[1] = {nz->data()};
-    f.Evaluate(in, o, ws);
-    const expr::Sparsity& sp = f.OutputSparsity(0);
-    out->setZero(sp.rows(), sp.cols());
-    const auto col = sp.ColumnOfNonzeros();
-    for (int k = 0; k < sp.nnz(); ++k) (*out)(sp.row()[k], col[k]) = (*nz)[k];
-  };
-  expr::Workspace ws_step = step.MakeWorkspace(), ws_jx = jx.MakeWorkspace(),
-                  ws_jp = jp.MakeWorkspace(), ws_hx = hx.MakeWorkspace(),
-                  ws_hp = hp.MakeWorkspace(), ws_out = model.output.MakeWorkspace();
-  Eigen::VectorXd nz_jx(jx.OutputSize(0)), nz_jp(jp.OutputSize(0)), nz_hx(hx.OutputSize(0)),
-      nz_hp(hp.OutputSize(0));
-  Eigen::MatrixXd Jx, Jp, Hx, Hp;
   long total_rows = 0;
   for (const auto& ex : experiments) total_rows += ex.u.rows() * ny;
   const int ncols = nf + nx * static_cast<int>(experiments.size());
@@ -176,39 +159,38 @@ UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
   long row = 0;
   for (std::size_t e = 0; e < experiments.size(); ++e) {
     const auto& ex = experiments[e];
-    Eigen::VectorXd x = initial_states[e], x_next(nx), y(ny), u(model.NumInputs());
-    // S = d x_k / d(theta_free, x0_e): nx x (nf + nx).
-    Eigen::MatrixXd s = Eigen::MatrixXd::Zero(nx, nf + nx);
-    s.rightCols(nx).setIdentity();
+    const SensitivityTrajectory t =
+        integrator.SimulateWithSensitivities(initial_states[e], ex.u, p, free);
+    if (!t.summary.ok()) {
+      throw std::runtime_error("SimulationCovariance: experiment '" + ex.name +
+                               "': " + t.summary.BriefReport());
+    }
     for (Eigen::Index k = 0; k < ex.u.rows(); ++k) {
-      u = ex.u.row(k).transpose();
-      const double* in[3] = {x.data(), u.data(), p.data()};
-      double* oy[1] = {y.data()};
-      model.output.Evaluate(in, oy, &ws_out);
-      dense(hx, in, &ws_hx, &nz_hx, &Hx);
-      dense(hp, in, &ws_hp, &nz_hp, &Hp);
-      Eigen::MatrixXd dy = Hx * s;
-      for (int i = 0; i < nf; ++i) dy.col(i) += Hp.col(free[i]);
       for (int j = 0; j < ny; ++j) {
-        res[row + j] = output_weights[j] * (y[j] - ex.y(k, j));
-        jac.row(row + j).head(nf) = output_weights[j] * dy.row(j).head(nf);
+        res[row + j] = output_weights[j] * (t.y(k, j) - ex.y(k, j));
+        jac.row(row + j).head(nf) = output_weights[j] * t.dy_dp[k].row(j);
         jac.row(row + j).segment(nf + nx * static_cast<Eigen::Index>(e), nx) =
-            output_weights[j] * dy.row(j).tail(nx);
+            output_weights[j] * t.dy_dx0[k].row(j);
       }
       row += ny;
-      dense(jx, in, &ws_jx, &nz_jx, &Jx);
-      dense(jp, in, &ws_jp, &nz_jp, &Jp);
-      Eigen::MatrixXd s_next = Jx * s;
-      for (int i = 0; i < nf; ++i) s_next.col(i) += Jp.col(free[i]);
-      s = s_next;
-      double* ox[1] = {x_next.data()};
-      step.Evaluate(in, ox, &ws_step);
-      x = x_next;
     }
   }
   std::vector<models::ModelParameter> params = model.parameters;
   for (int i = 0; i < model.NumParameters(); ++i) params[i].value = p[i];
   return CovarianceFromJacobian(jac, res, params, free, options);
+}
+
+UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
+                                       const std::vector<ExperimentData>& experiments,
+                                       const Eigen::VectorXd& p,
+                                       const std::vector<Eigen::VectorXd>& initial_states,
+                                       const Eigen::VectorXd& output_weights, int substeps,
+                                       const CovarianceOptions& options) {
+  if (experiments.empty()) {
+    throw std::invalid_argument("SimulationCovariance: expected at least one experiment, got 0");
+  }
+  return SimulationCovariance(Rk4Integrator(model, experiments[0].dt, substeps), experiments, p,
+                              initial_states, output_weights, options);
 }
 
 }  // namespace graybox::estimators

@@ -5,8 +5,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "experiment_checks.h"
 #include "graybox/estimators/integrators.h"
-#include "graybox/estimators/weights.h"
 
 namespace graybox::estimators {
 
@@ -94,54 +94,14 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
                                       const MultipleShootingOptions& options) {
   options.Validate();
   const int nx = model.NumStates(), nu = model.NumInputs(), ny = model.NumOutputs();
-  if (experiments.empty()) {
-    throw std::invalid_argument("BuildMultipleShooting: expected at least one experiment, got 0");
-  }
-  for (const auto& ex : experiments) {
-    const std::string where = "experiment '" + ex.name + "'";
-    if (!(ex.dt > 0.0)) {
-      throw std::invalid_argument(where + ": expected a sample time > 0, got " +
-                                  std::to_string(ex.dt));
-    }
-    if (ex.u.cols() != nu || ex.y.cols() != ny || ex.u.rows() != ex.y.rows() || ex.u.rows() < 1) {
-      throw std::invalid_argument(where + ": expected u of N x " + std::to_string(nu) +
-                                  " and y of N x " + std::to_string(ny) + " with N >= 1, got " +
-                                  std::to_string(ex.u.rows()) + "x" + std::to_string(ex.u.cols()) +
-                                  " and " + std::to_string(ex.y.rows()) + "x" +
-                                  std::to_string(ex.y.cols()));
-    }
-    if (!ex.u.allFinite() || !ex.y.allFinite()) {
-      throw std::invalid_argument(where + ": data contains NaN or Inf");
-    }
-    if (ex.x0.size() != nx || !ex.x0.allFinite()) {
-      throw std::invalid_argument(where + ": expected a finite initial state of size " +
-                                  std::to_string(nx) + ", got size " +
-                                  std::to_string(ex.x0.size()));
-    }
-    if (ex.state_guess.size() > 0 &&
-        (ex.state_guess.rows() != ex.u.rows() || ex.state_guess.cols() != nx)) {
-      throw std::invalid_argument(where + ": expected a state guess of " +
-                                  std::to_string(ex.u.rows()) + "x" + std::to_string(nx) +
-                                  ", got " + std::to_string(ex.state_guess.rows()) + "x" +
-                                  std::to_string(ex.state_guess.cols()));
-    }
-  }
+  internal::CheckExperiments(model, experiments, "BuildMultipleShooting");
   const ParameterMap map = ParameterMap::FromModel(model.parameters);
   const std::vector<int>& free = map.free;
   const int nf = map.NumFree();
   const Eigen::VectorXd& scale = map.scale;
   const Eigen::VectorXd& values = map.values;
-  // Output weights: 1 / std per channel.
-  Eigen::VectorXd weights = options.output_weights;
-  if (weights.size() == 0) {
-    std::vector<const Eigen::MatrixXd*> ys;
-    for (const auto& ex : experiments) ys.push_back(&ex.y);
-    weights = InverseStdWeights(ys);
-  } else if (weights.size() != ny) {
-    throw std::invalid_argument("MultipleShootingOptions.output_weights: expected " +
-                                std::to_string(ny) + " entries, got " +
-                                std::to_string(weights.size()));
-  }
+  const Eigen::VectorXd weights = internal::ResolveOutputWeights(
+      options.output_weights, ny, experiments, "MultipleShootingOptions.output_weights");
   // Variables: theta (scaled), then the nodes of every experiment.
   std::vector<double> w0, lbw, ubw;
   std::vector<std::string> names;
@@ -157,11 +117,6 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
   std::vector<Pending> segments;
   for (std::size_t e = 0; e < experiments.size(); ++e) {
     const auto& ex = experiments[e];
-    if (std::fabs(ex.dt - experiments[0].dt) > 1e-12 * experiments[0].dt) {
-      throw std::invalid_argument("experiment '" + ex.name + "': expected the sample time " +
-                                  std::to_string(experiments[0].dt) +
-                                  " s of the first experiment, got " + std::to_string(ex.dt));
-    }
     const int n = static_cast<int>(ex.u.rows());
     const int num_segments = (n + length - 1) / length;
     Eigen::MatrixXd guess = ex.state_guess;

@@ -1,5 +1,6 @@
 #include "graybox/estimators/nlp.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <unordered_map>
@@ -29,7 +30,8 @@ struct Nlp::Prepared {
   Sparsity jac_c_sp, jac_r_sp, hess_sp;
   int constraint_offset = 0;
   int residual_offset = 0;
-  std::vector<int> hess_slot;  // nnz(hess_sp) x instances -> global Hessian entry
+  std::size_t rjac_offset = 0;  // first entry of this group's residual Jacobian triplets
+  std::vector<int> hess_slot;   // nnz(hess_sp) x instances -> global Hessian entry
   // Mutable scratch (evaluation is not thread-safe per Nlp).
   mutable Workspace ws_obj, ws_grad, ws_c, ws_jc, ws_r, ws_jr, ws_h;
   mutable Eigen::VectorXd z, buffer;
@@ -158,6 +160,7 @@ int Nlp::AddGroup(ElementGroup group) {
   p->residual_offset = num_residuals_;
   // Jacobian triplets.
   const int instances = group.NumInstances();
+  p->rjac_offset = rjac_rows_.size();
   const std::vector<int> c_col = p->jac_c_sp.ColumnOfNonzeros();
   const std::vector<int> r_col = p->jac_r_sp.ColumnOfNonzeros();
   for (int e = 0; e < instances; ++e) {
@@ -177,6 +180,84 @@ int Nlp::AddGroup(ElementGroup group) {
   prepared_.push_back(std::move(p));
   BuildHessianStructure();
   return offset;
+}
+
+// The last point a residual block was evaluated at, and what was computed there.
+struct Nlp::ExternalCache {
+  std::size_t rjac_offset = 0;
+  Eigen::VectorXd z, r;
+  Eigen::MatrixXd jacobian;
+  bool has_r = false, has_jacobian = false;
+  NlpEvalStatus status;
+};
+
+void Nlp::AddResidualBlock(std::string name, std::vector<int> variables,
+                           std::shared_ptr<const ResidualBlock> block) {
+  const std::string where = "Nlp residual block '" + name + "'";
+  if (block == nullptr) throw std::invalid_argument(where + ": expected a block, got null");
+  const int nr = block->NumResiduals();
+  if (nr < 0) {
+    throw std::invalid_argument(where + ": expected >= 0 residuals, got " + std::to_string(nr));
+  }
+  for (std::size_t k = 0; k < variables.size(); ++k) {
+    const int v = variables[k];
+    if (v < 0 || v >= NumVariables()) {
+      throw std::invalid_argument(where + ": entry " + std::to_string(k) +
+                                  ": expected a variable index in [0, " +
+                                  std::to_string(NumVariables()) + "), got " + std::to_string(v));
+    }
+    for (std::size_t j = 0; j < k; ++j) {
+      if (variables[j] == v) {
+        throw std::invalid_argument(where + ": reads variable " + std::to_string(v) + " twice");
+      }
+    }
+  }
+  auto cache = std::make_shared<ExternalCache>();
+  cache->rjac_offset = rjac_rows_.size();
+  for (std::size_t k = 0; k < variables.size(); ++k) {
+    for (int i = 0; i < nr; ++i) {
+      rjac_rows_.push_back(num_residuals_ + i);
+      rjac_cols_.push_back(variables[k]);
+    }
+  }
+  external_.push_back({std::move(name), std::move(variables), std::move(block), num_residuals_});
+  external_cache_.push_back(std::move(cache));
+  num_residuals_ += nr;
+  BuildHessianStructure();
+}
+
+NlpEvalStatus Nlp::EvaluateExternal(std::size_t b, const double* w, bool with_jacobian) const {
+  const ExternalBlock& x = external_[b];
+  ExternalCache& c = *external_cache_[b];
+  const Eigen::Index nz = static_cast<Eigen::Index>(x.variables.size());
+  bool same = c.z.size() == nz && (c.has_r || !c.status.ok);
+  for (Eigen::Index k = 0; same && k < nz; ++k) same = c.z[k] == w[x.variables[k]];
+  if (same && (!c.status.ok || !with_jacobian || c.has_jacobian)) return c.status;
+  c.z.resize(nz);
+  for (Eigen::Index k = 0; k < nz; ++k) c.z[k] = w[x.variables[k]];
+  c.has_r = c.has_jacobian = false;
+  c.status = x.block->Evaluate(c.z, &c.r, with_jacobian ? &c.jacobian : nullptr);
+  if (c.status.ok && c.r.size() != x.block->NumResiduals()) {
+    c.status = {false, "expected " + std::to_string(x.block->NumResiduals()) + " residuals, got " +
+                           std::to_string(c.r.size())};
+  }
+  if (c.status.ok && with_jacobian &&
+      (c.jacobian.rows() != c.r.size() || c.jacobian.cols() != nz)) {
+    c.status = {false, "expected a " + std::to_string(c.r.size()) + "x" + std::to_string(nz) +
+                           " Jacobian, got " + std::to_string(c.jacobian.rows()) + "x" +
+                           std::to_string(c.jacobian.cols())};
+  }
+  if (c.status.ok && !c.r.allFinite()) c.status = {false, "non-finite residual"};
+  if (c.status.ok && with_jacobian && !c.jacobian.allFinite()) {
+    c.status = {false, "non-finite Jacobian"};
+  }
+  if (!c.status.ok) {
+    c.status.message = "residual block '" + x.name + "': " + c.status.message;
+    return c.status;
+  }
+  c.has_r = true;
+  c.has_jacobian = with_jacobian;
+  return c.status;
 }
 
 void Nlp::BuildHessianStructure() {
@@ -202,6 +283,22 @@ void Nlp::BuildHessianStructure() {
           hess_cols_.push_back(b);
         }
         p.hess_slot[static_cast<std::size_t>(e) * nnz + k] = it->second;
+      }
+    }
+  }
+  external_hess_slot_.assign(external_.size(), {});
+  for (std::size_t b = 0; b < external_.size(); ++b) {
+    const std::vector<int>& v = external_[b].variables;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      for (std::size_t j = 0; j <= i; ++j) {  // pairs (i, j), j <= i, in this order
+        int a = v[i], c = v[j];
+        if (a < c) std::swap(a, c);
+        auto [it, inserted] = slot.emplace(a * n + c, static_cast<int>(hess_rows_.size()));
+        if (inserted) {
+          hess_rows_.push_back(a);
+          hess_cols_.push_back(c);
+        }
+        external_hess_slot_[b].push_back(it->second);
       }
     }
   }
@@ -280,6 +377,11 @@ NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
       sum += v;
     }
   }
+  for (std::size_t b = 0; b < external_.size(); ++b) {
+    const NlpEvalStatus s = EvaluateExternal(b, w, false);
+    if (!s.ok) return s;
+    sum += 0.5 * external_cache_[b]->r.squaredNorm();
+  }
   *f = sum;
   return {};
 }
@@ -295,6 +397,13 @@ NlpEvalStatus Nlp::Gradient(const double* w, double* grad) const {
       if (!s.ok) return Fail(groups_[g], e, s);
       for (int k = 0; k < p.nz; ++k) grad[groups_[g].index(k, e)] += p.buffer[k];
     }
+  }
+  for (std::size_t b = 0; b < external_.size(); ++b) {
+    const NlpEvalStatus s = EvaluateExternal(b, w, true);
+    if (!s.ok) return s;
+    const ExternalCache& c = *external_cache_[b];
+    const Eigen::VectorXd jtr = c.jacobian.transpose() * c.r;
+    for (Eigen::Index k = 0; k < jtr.size(); ++k) grad[external_[b].variables[k]] += jtr[k];
   }
   return {};
 }
@@ -322,6 +431,12 @@ NlpEvalStatus Nlp::Residuals(const double* w, double* r) const {
       if (!s.ok) return Fail(groups_[g], e, s);
     }
   }
+  for (std::size_t b = 0; b < external_.size(); ++b) {
+    const NlpEvalStatus s = EvaluateExternal(b, w, false);
+    if (!s.ok) return s;
+    const Eigen::VectorXd& rb = external_cache_[b]->r;
+    std::copy(rb.data(), rb.data() + rb.size(), r + external_[b].residual_offset);
+  }
   return {};
 }
 
@@ -341,16 +456,22 @@ NlpEvalStatus Nlp::JacobianValues(const double* w, double* values) const {
 }
 
 NlpEvalStatus Nlp::ResidualJacobianValues(const double* w, double* values) const {
-  std::size_t offset = 0;
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
     const int nnz = p.jac_r_sp.nnz();
+    std::size_t offset = p.rjac_offset;
     for (int e = 0; e < groups_[g].NumInstances(); ++e) {
       if (nnz == 0) continue;
       const EvalStatus s = EvalInstance(p.jac_r, groups_[g], e, w, &p.z, &p.ws_jr, values + offset);
       if (!s.ok) return Fail(groups_[g], e, s);
       offset += nnz;
     }
+  }
+  for (std::size_t b = 0; b < external_.size(); ++b) {
+    const NlpEvalStatus s = EvaluateExternal(b, w, true);
+    if (!s.ok) return s;
+    const Eigen::MatrixXd& j = external_cache_[b]->jacobian;  // column-major = triplet order
+    std::copy(j.data(), j.data() + j.size(), values + external_cache_[b]->rjac_offset);
   }
   return {};
 }
@@ -369,6 +490,18 @@ NlpEvalStatus Nlp::HessianValues(const double* w, double sigma, const double* la
       if (!s.ok) return Fail(groups_[g], e, s);
       const int* slot = p.hess_slot.data() + static_cast<std::size_t>(e) * nnz;
       for (int k = 0; k < nnz; ++k) values[slot[k]] += p.buffer[k];
+    }
+  }
+  for (std::size_t b = 0; b < external_.size(); ++b) {
+    if (sigma == 0.0) break;
+    const NlpEvalStatus s = EvaluateExternal(b, w, true);
+    if (!s.ok) return s;
+    const Eigen::MatrixXd& j = external_cache_[b]->jacobian;
+    const Eigen::MatrixXd gn = j.transpose() * j;  // Gauss-Newton
+    const std::vector<int>& slot = external_hess_slot_[b];
+    std::size_t k = 0;
+    for (Eigen::Index i = 0; i < gn.rows(); ++i) {
+      for (Eigen::Index c = 0; c <= i; ++c) values[slot[k++]] += sigma * gn(i, c);
     }
   }
   return {};

@@ -673,6 +673,28 @@ void ParseIpopt(const Section& s, IpoptOptions* options) {
   CheckIpoptOptions(s, *options);
 }
 
+void ParseIntegrator(const Section& s, IntegratorOptions* options) {
+  s.Allow({"method", "relative_tolerance", "absolute_tolerance", "max_steps", "max_order",
+           "linear_solver"});
+  if (auto v = s.Choice("method", {"rk4", "cvodes"})) {
+    options->method = ParseIntegrationMethod(*v);
+  }
+  CvodesOptions& c = options->cvodes;
+  if (auto v = s.PositiveNumber("relative_tolerance")) c.relative_tolerance = *v;
+  if (auto v = s.PositiveNumber("absolute_tolerance")) c.absolute_tolerance = *v;
+  if (auto v = s.Integer("max_steps", 1, 1000000000)) c.max_steps = *v;
+  if (auto v = s.Integer("max_order", 1, 5)) c.max_order = static_cast<int>(*v);
+  if (auto v = s.Choice("linear_solver", {"dense", "klu"})) {
+    c.linear_solver =
+        *v == "dense" ? CvodesOptions::LinearSolver::kDense : CvodesOptions::LinearSolver::kKlu;
+  }
+  try {
+    options->Validate();
+  } catch (const std::invalid_argument& e) {
+    s.Fail("", e.what());
+  }
+}
+
 void ParseCeres(const Section& s, CeresOptions* options) {
   s.Allow({"max_iterations", "function_tolerance", "gradient_tolerance", "parameter_tolerance",
            "loss", "loss_scale", "num_threads", "print_progress"});
@@ -848,7 +870,7 @@ void ParseEstimation(const Section& root, Problem* problem) {
   auto est = root.Sub("estimation");
   if (!est) root.Fail("", "missing table [estimation]: expected at least method = '...'");
   const Section& e = *est;
-  e.Allow({"method", "solver", "seed", "substeps", "multiple_shooting", "collocation",
+  e.Allow({"method", "solver", "seed", "substeps", "integrator", "multiple_shooting", "collocation",
            "equation_error", "ipopt", "ceres"});
   EstimationSpec& spec = problem->estimation;
   spec.where = e.Where();
@@ -859,6 +881,8 @@ void ParseEstimation(const Section& root, Problem* problem) {
                     .value_or(spec.method == "equation_error" ? "ceres" : "ipopt");
   spec.seed = static_cast<unsigned>(e.Integer("seed", 0, 4294967295L).value_or(1));
   spec.substeps = static_cast<int>(e.Integer("substeps", 1, 1000).value_or(1));
+  spec.integrator.rk4_substeps = spec.substeps;
+  if (auto in = e.Sub("integrator")) ParseIntegrator(*in, &spec.integrator);
   if (spec.method == "collocation" && spec.solver != "ipopt") {
     e.Fail("solver", "collocation has equality constraints: expected solver = 'ipopt', got '" +
                          spec.solver + "'");

@@ -65,6 +65,38 @@ class ElementCost : public ceres::CostFunction {
   mutable Eigen::VectorXd z_, jac_;
 };
 
+// A residual block of the Nlp computed by user code (nlp.h ResidualBlock).
+class ExternalCost : public ceres::CostFunction {
+ public:
+  explicit ExternalCost(const Nlp::ExternalBlock* block)
+      : block_(block), z_(static_cast<Eigen::Index>(block->variables.size())) {
+    set_num_residuals(block->block->NumResiduals());
+    for (std::size_t k = 0; k < block->variables.size(); ++k) {
+      mutable_parameter_block_sizes()->push_back(1);
+    }
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    for (Eigen::Index k = 0; k < z_.size(); ++k) z_[k] = parameters[k][0];
+    if (!block_->block->Evaluate(z_, &r_, jacobians != nullptr ? &j_ : nullptr).ok) return false;
+    const int nr = num_residuals();
+    if (r_.size() != nr || !r_.allFinite()) return false;
+    std::copy(r_.data(), r_.data() + nr, residuals);
+    if (jacobians == nullptr) return true;
+    if (j_.rows() != nr || j_.cols() != z_.size() || !j_.allFinite()) return false;
+    for (Eigen::Index k = 0; k < z_.size(); ++k) {
+      if (jacobians[k] != nullptr) std::copy(j_.col(k).data(), j_.col(k).data() + nr, jacobians[k]);
+    }
+    return true;
+  }
+
+ private:
+  const Nlp::ExternalBlock* block_;
+  mutable Eigen::VectorXd z_, r_;
+  mutable Eigen::MatrixXd j_;
+};
+
 ceres::LossFunction* MakeLoss(const CeresOptions& o) {
   if (o.loss == "trivial") return nullptr;
   if (o.loss == "huber") return new ceres::HuberLoss(o.loss_scale);
@@ -145,6 +177,12 @@ SolverResult SolveWithCeres(const Nlp& nlp, const CeresOptions& options) {
       problem.AddResidualBlock(new ElementCost(&fns[g], group.data.col(e).data(), nz, nr),
                                MakeLoss(options), blocks);
     }
+  }
+  for (const Nlp::ExternalBlock& block : nlp.residual_blocks()) {
+    if (block.block->NumResiduals() == 0) continue;
+    std::vector<double*> blocks;
+    for (int v : block.variables) blocks.push_back(&w[v]);
+    problem.AddResidualBlock(new ExternalCost(&block), MakeLoss(options), blocks);
   }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;

@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 
+#include "graybox/estimators/integrators.h"
 #include "graybox/estimators/multiple_shooting.h"
 #include "graybox/models/model.h"
 
@@ -68,9 +69,19 @@ UncertaintyReport CovarianceFromJacobian(const Eigen::MatrixXd& jacobian,
                                          const CovarianceOptions& options = {});
 
 /// Output-error covariance of a fitted StateSpaceModel: simulates every experiment from its
-/// initial state with the parameter vector `p`, forms the sensitivity Jacobian of the weighted
-/// outputs with respect to the free parameters and initial states, and calls
-/// CovarianceFromJacobian. `initial_states[e]` is the estimated x0 of experiment e.
+/// initial state with the parameter vector `p` by `integrator` (RK4 or CVODES, bound to the
+/// model and the experiments' sample time), forms the sensitivity Jacobian of the weighted
+/// outputs with respect to the free parameters and initial states (the integrator's forward
+/// sensitivities), and calls CovarianceFromJacobian. `initial_states[e]` is the estimated x0 of
+/// experiment e. A failed simulation throws std::runtime_error naming the experiment.
+UncertaintyReport SimulationCovariance(const Integrator& integrator,
+                                       const std::vector<ExperimentData>& experiments,
+                                       const Eigen::VectorXd& p,
+                                       const std::vector<Eigen::VectorXd>& initial_states,
+                                       const Eigen::VectorXd& output_weights,
+                                       const CovarianceOptions& options = {});
+
+/// The same with Rk4Integrator(model, experiments[0].dt, substeps).
 UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
                                        const std::vector<ExperimentData>& experiments,
                                        const Eigen::VectorXd& p,

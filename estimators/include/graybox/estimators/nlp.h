@@ -15,6 +15,12 @@
 // An element Function has inputs "z" and "d" (either may be empty) and any of the outputs
 // "f" (1 entry), "r" (residuals) and "c" (constraints). Variables may be shared between elements
 // (the model parameters are shared by all of them); one element may not read a variable twice.
+//
+// A residual block (AddResidualBlock) is the one exception to "everything is a libexpr
+// Function": residuals computed by user code with their dense Jacobian, such as a whole
+// simulation by an Integrator with forward sensitivities (single_shooting.h). Its objective term
+// is 1/2 |r|^2 like any residual; its contribution to the Hessian of the Lagrangian is the
+// Gauss-Newton matrix J^T J (second derivatives of r are not formed).
 #pragma once
 
 #include <memory>
@@ -48,6 +54,18 @@ struct NlpEvalStatus {
   std::string message;
 };
 
+/// Residuals r(z) computed by user code, with their dense Jacobian d r / d z.
+class ResidualBlock {
+ public:
+  virtual ~ResidualBlock() = default;
+  virtual int NumResiduals() const = 0;
+  /// Fills r (resized to NumResiduals()) and, when `jacobian` is not null, the dense
+  /// NumResiduals() x z.size() Jacobian. A numerical failure (a diverged simulation) returns
+  /// ok = false with a message; it must not throw. Called from one thread at a time.
+  virtual NlpEvalStatus Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* r,
+                                 Eigen::MatrixXd* jacobian) const = 0;
+};
+
 class Nlp {
  public:
   /// Variables with initial values, bounds and names (names for reports; may be empty strings).
@@ -58,6 +76,11 @@ class Nlp {
   /// versus got) and prepares the derivative Functions. Returns the offset of the group's first
   /// constraint in the global constraint vector.
   int AddGroup(ElementGroup group);
+
+  /// Adds a residual block reading w[variables[k]] (distinct, in range; std::invalid_argument
+  /// naming the block otherwise). Its residuals follow those already added.
+  void AddResidualBlock(std::string name, std::vector<int> variables,
+                        std::shared_ptr<const ResidualBlock> block);
 
   int NumVariables() const { return static_cast<int>(w0_.size()); }
   int NumConstraints() const { return num_constraints_; }
@@ -98,14 +121,28 @@ class Nlp {
 
   const std::vector<ElementGroup>& groups() const { return groups_; }
 
+  struct ExternalBlock {
+    std::string name;
+    std::vector<int> variables;
+    std::shared_ptr<const ResidualBlock> block;
+    int residual_offset = 0;
+  };
+  const std::vector<ExternalBlock>& residual_blocks() const { return external_; }
+
  private:
   struct Prepared;
+  struct ExternalCache;
+  // Evaluates residual block b at w (cached per point); jacobian only when `with_jacobian`.
+  NlpEvalStatus EvaluateExternal(std::size_t b, const double* w, bool with_jacobian) const;
   void BuildHessianStructure();
 
   Eigen::VectorXd w0_, lbw_, ubw_;
   std::vector<std::string> names_;
   std::vector<ElementGroup> groups_;
   std::vector<std::shared_ptr<Prepared>> prepared_;
+  std::vector<ExternalBlock> external_;
+  std::vector<std::shared_ptr<ExternalCache>> external_cache_;
+  std::vector<std::vector<int>> external_hess_slot_;  // lower-triangle pairs -> global entry
   int num_constraints_ = 0;
   int num_residuals_ = 0;
   std::vector<int> jac_rows_, jac_cols_;

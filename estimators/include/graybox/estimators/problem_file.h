@@ -45,6 +45,7 @@
 
 #include "graybox/estimators/collocation.h"
 #include "graybox/estimators/dataset.h"
+#include "graybox/estimators/integrator_factory.h"
 #include "graybox/estimators/multiple_shooting.h"
 #include "graybox/estimators/solvers.h"
 #include "graybox/models/model.h"
@@ -179,6 +180,11 @@ struct EstimationSpec {
   unsigned seed = 1;
   /// RK4 substeps per sample in every simulation (shooting, reports, `graybox simulate`).
   int substeps = 1;
+  /// The integrator of single shooting, of the reported simulations, of `graybox simulate` and of
+  /// the output-error covariance ([estimation.integrator]: method "rk4" with `substeps`, or
+  /// "cvodes" with its tolerances). Multiple shooting and collocation keep their own
+  /// discretisation (the RK4 map, collocation polynomials) inside the NLP.
+  IntegratorOptions integrator;
   MultipleShootingOptions multiple_shooting;
   /// Output weights by output name (default 1 / std of the channel).
   std::map<std::string, double> output_weights;

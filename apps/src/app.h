@@ -71,7 +71,14 @@ struct SplitEvaluation {
   Eigen::VectorXd equation_time;
   Eigen::MatrixXd equation_measured, equation_predicted;
   estimators::MetricReport equation;
+  // N-step-ahead NRMS ([metrics] n_step > 0).
+  bool has_n_step = false;
+  estimators::NStepResult n_step;
 };
+
+/// Adds the N-step-ahead NRMS of a split ([metrics] n_step) from the states in its data.
+void EvaluateNStep(const estimators::Problem& problem, const estimators::SplitData& split,
+                   const Eigen::VectorXd& p, SplitEvaluation* e);
 
 /// Simulates a split from x0 with parameters p and computes the output metrics.
 SplitEvaluation EvaluateSimulation(const estimators::Problem& problem,

@@ -328,22 +328,26 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
   }
   const Eigen::VectorXd used_weights =
       f.shooting ? f.shooting->output_weights : f.collocation->output_weights;
-  // The covariance simulates as the formulation does: the RK4 map of multiple shooting, else the
-  // problem's integrator.
-  estimators::IntegratorOptions integration = spec.integrator;
   if (spec.method == "multiple_shooting") {
-    integration = estimators::IntegratorOptions();
-    integration.rk4_substeps = substeps;
+    // Gauss-Newton covariance of the shooting NLP itself (continuity weighted as the Ceres form
+    // penalises it, nodes marginalised): finite even when a whole-record simulation drifts.
+    const auto sp = f.shooting;
+    const double continuity_weight = spec.multiple_shooting.continuity_weight;
+    f.covariance = [sp, continuity_weight](const Eigen::VectorXd& w, const Eigen::VectorXd&) {
+      return estimators::NlpCovariance(sp->nlp, w, sp->parameters, continuity_weight);
+    };
+  } else {
+    // Output error of the whole record, simulated by the problem's integrator.
+    const std::shared_ptr<const estimators::Integrator> integrator =
+        estimators::MakeIntegrator(m, ex->at(0).dt, spec.integrator);
+    f.covariance = [initial = f.initial_states, ex, integrator, used_weights](
+                       const Eigen::VectorXd& w, const Eigen::VectorXd& p) {
+      const auto x0 = initial(w);
+      std::vector<Eigen::VectorXd> states;
+      for (const auto& e : *ex) states.push_back(x0.at(e.name));
+      return estimators::SimulationCovariance(*integrator, *ex, p, states, used_weights);
+    };
   }
-  const std::shared_ptr<const estimators::Integrator> integrator =
-      estimators::MakeIntegrator(m, ex->at(0).dt, integration);
-  f.covariance = [initial = f.initial_states, ex, integrator, used_weights](
-                     const Eigen::VectorXd& w, const Eigen::VectorXd& p) {
-    const auto x0 = initial(w);
-    std::vector<Eigen::VectorXd> states;
-    for (const auto& e : *ex) states.push_back(x0.at(e.name));
-    return estimators::SimulationCovariance(*integrator, *ex, p, states, used_weights);
-  };
   long samples = 0;
   for (const auto& e : *ex) samples += e.u.rows();
   Progress("  " + spec.method + ": " + std::to_string(samples) + " samples in " +
@@ -356,6 +360,10 @@ void PrintEvaluation(const SplitEvaluation& e) {
   Progress("  split '" + e.name + "' (" + estimators::SplitRoleName(e.role) +
            ") simulation: " + e.simulation.BriefReport() +
            (e.simulation_ok ? "" : " [diverged at sample " + std::to_string(e.failed_at) + "]"));
+  if (e.has_n_step) {
+    Progress("  split '" + e.name + "' (" + estimators::SplitRoleName(e.role) + ") " +
+             e.n_step.BriefReport());
+  }
   if (e.has_equation) {
     Progress("  split '" + e.name + "' (" + estimators::SplitRoleName(e.role) +
              ") equation: " + e.equation.BriefReport());
@@ -448,6 +456,7 @@ int RunFit(const CommandOptions& o) {
           EvaluateSimulation(problem, s, report.parameters,
                              x0 != report.estimated_initial_states.end() ? x0->second : s.x0);
       if (f.equation) EvaluateEquation(problem, f.equation->model, s, report.parameters, &e);
+      EvaluateNStep(problem, s, report.parameters, &e);
       PrintEvaluation(e);
       report.evaluations.push_back(std::move(e));
     }
@@ -489,6 +498,7 @@ int RunSimulate(const CommandOptions& o) {
     t = Timer();
     for (const SplitData& s : splits) {
       SplitEvaluation e = EvaluateSimulation(problem, s, report.parameters, s.x0);
+      EvaluateNStep(problem, s, report.parameters, &e);
       PrintEvaluation(e);
       if (!e.simulation_ok && report.exit_code == kExitSuccess) {
         report.status = "simulation_failure";

@@ -8,7 +8,9 @@
 #include <stdexcept>
 
 #include "app.h"
+#include "equation_error_fit.h"
 #include "graybox/estimators/integrator_factory.h"
+#include "graybox/estimators/n_step.h"
 #include "graybox/expr/derivative_check.h"
 
 namespace graybox::app {
@@ -35,6 +37,26 @@ SplitEvaluation EvaluateSimulation(const estimators::Problem& problem,
   }
   ev.simulation = estimators::ComputeMetrics(e, ev.simulated);
   return ev;
+}
+
+void EvaluateNStep(const estimators::Problem& problem, const estimators::SplitData& split,
+                   const Eigen::VectorXd& p, SplitEvaluation* e) {
+  const int steps = problem.metrics.n_step;
+  if (steps <= 0) return;
+  const estimators::Experiment& ex = split.experiment;
+  if (ex.NumSamples() <= steps) {
+    throw std::invalid_argument("split '" + split.name +
+                                "': [metrics] n_step = " + std::to_string(steps) +
+                                " needs more than " + std::to_string(steps) + " samples, got " +
+                                std::to_string(ex.NumSamples()));
+  }
+  const Eigen::MatrixXd x = StatesFromData(problem, problem.estimation.equation_error, ex);
+  estimators::NStepSimulationOptions options;
+  options.scoring.steps = steps;
+  options.scoring.stride = problem.metrics.n_step_stride;
+  options.substeps = problem.estimation.substeps;
+  e->n_step = estimators::NStepNrmsRk4(problem.built, x, ex.u, p, ex.dt, options);
+  e->has_n_step = true;
 }
 
 std::vector<DerivativeCheckLine> CheckModelDerivatives(const estimators::Problem& problem,

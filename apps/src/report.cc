@@ -164,6 +164,19 @@ std::string ReportJson(const RunReport& report) {
     sim["failed_at"] = e.failed_at >= 0 ? Json(e.failed_at) : Json(nullptr);
     s["simulation"] = sim;
     if (e.has_equation) s["equation"] = MetricsJson(e.equation);
+    if (e.has_n_step) {
+      Json n;
+      n["steps"] = e.n_step.steps;
+      n["starts"] = static_cast<int>(e.n_step.starts.size());
+      n["nrms"] = e.n_step.nrms;
+      Json channels = Json::object();
+      for (std::size_t c = 0; c < e.n_step.channels.size(); ++c) {
+        channels[m.states[static_cast<std::size_t>(e.n_step.channels[c])].name] =
+            e.n_step.channel_nrms[static_cast<Eigen::Index>(c)];
+      }
+      n["channels"] = channels;
+      s["n_step"] = n;
+    }
     metrics[e.name] = s;
   }
   j["metrics"] = metrics;

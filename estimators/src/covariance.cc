@@ -1,6 +1,8 @@
 #include "graybox/estimators/covariance.h"
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -27,26 +29,51 @@ UncertaintyReport CovarianceFromJacobian(const Eigen::MatrixXd& jacobian,
                                 " rows and >= " + std::to_string(nf) + " columns, got " +
                                 std::to_string(jacobian.rows()) + "x" + std::to_string(n));
   }
+  const Eigen::MatrixXd info = jacobian.transpose() * jacobian;
+  Eigen::MatrixXd reduced = info.topLeftCorner(nf, nf);
+  if (n > nf) {  // marginalise the nuisance block: I_tt - I_tn I_nn^-1 I_nt
+    const Eigen::Index nn = n - nf;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(info.bottomRightCorner(nn, nn));
+    reduced -= info.topRightCorner(nf, nn) * ldlt.solve(info.bottomLeftCorner(nn, nf));
+  }
+  const double dof = std::max<double>(1.0, static_cast<double>(residuals.size() - n));
+  return CovarianceFromInformation(reduced, residuals.squaredNorm() / dof,
+                                   static_cast<int>(residuals.size()), parameters, free_indices,
+                                   options);
+}
+
+UncertaintyReport CovarianceFromInformation(const Eigen::MatrixXd& information,
+                                            double residual_variance, int num_residuals,
+                                            const std::vector<models::ModelParameter>& parameters,
+                                            const std::vector<int>& free_indices,
+                                            const CovarianceOptions& options) {
+  const int nf = static_cast<int>(free_indices.size());
+  if (information.rows() != nf || information.cols() != nf) {
+    throw std::invalid_argument("CovarianceFromInformation: expected a " + std::to_string(nf) +
+                                "x" + std::to_string(nf) + " information matrix, got " +
+                                std::to_string(information.rows()) + "x" +
+                                std::to_string(information.cols()));
+  }
   UncertaintyReport report;
   report.free_indices = free_indices;
-  report.num_residuals = static_cast<int>(residuals.size());
-  const double dof = std::max<double>(1.0, static_cast<double>(residuals.size() - n));
-  report.residual_variance = residuals.squaredNorm() / dof;
+  report.num_residuals = num_residuals;
+  report.residual_variance = residual_variance;
   // Information matrix scaled to unit diagonal (column equilibration) for a meaningful condition
   // number and a stable inverse.
-  const Eigen::MatrixXd info = jacobian.transpose() * jacobian;
-  Eigen::VectorXd d = info.diagonal().cwiseSqrt();
+  const Eigen::Index n = nf;
+  const Eigen::MatrixXd& info = information;
+  Eigen::VectorXd d = info.diagonal().cwiseMax(0.0).cwiseSqrt();
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!(d[i] > 0.0)) d[i] = 1.0;
   }
   const Eigen::MatrixXd scaled =
       d.cwiseInverse().asDiagonal() * info * d.cwiseInverse().asDiagonal();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
-  const double lmax = eig.eigenvalues().maxCoeff();
-  const double lmin = eig.eigenvalues().minCoeff();
+  const double lmax = n > 0 ? eig.eigenvalues().maxCoeff() : 1.0;
+  const double lmin = n > 0 ? eig.eigenvalues().minCoeff() : 1.0;
   report.condition_number = lmin > 0.0 ? lmax / lmin : std::numeric_limits<double>::infinity();
   Eigen::MatrixXd cov_full;
-  if (lmin > lmax * 1e-14) {
+  if (lmin > lmax * 1e-14 && scaled.allFinite()) {
     cov_full = d.cwiseInverse().asDiagonal() *
                scaled.ldlt().solve(Eigen::MatrixXd::Identity(n, n)) * d.cwiseInverse().asDiagonal();
     cov_full *= report.residual_variance;
@@ -130,6 +157,66 @@ std::string UncertaintyReport::FullReport() const {
   }
   for (const auto& w : warnings) os << "  warning: " << w << "\n";
   return os.str();
+}
+
+UncertaintyReport NlpCovariance(const Nlp& nlp, const Eigen::VectorXd& w, const ParameterMap& map,
+                                double constraint_weight, const CovarianceOptions& options) {
+  const int nf = map.NumFree();
+  const int nw = nlp.NumVariables();
+  const int nr = nlp.NumResiduals();
+  const int nc = constraint_weight > 0.0 ? nlp.NumConstraints() : 0;
+  if (w.size() != nw) {
+    throw std::invalid_argument("NlpCovariance: expected w of size " + std::to_string(nw) +
+                                ", got " + std::to_string(w.size()));
+  }
+  Eigen::VectorXd r(nr + nc);
+  NlpEvalStatus status = nlp.Residuals(w.data(), r.data());
+  if (!status.ok) throw std::runtime_error("NlpCovariance: residuals: " + status.message);
+  std::vector<Eigen::Triplet<double>> triplets;
+  std::vector<double> values(nlp.ResidualJacobianRows().size());
+  status = nlp.ResidualJacobianValues(w.data(), values.data());
+  if (!status.ok) throw std::runtime_error("NlpCovariance: residual Jacobian: " + status.message);
+  // Columns of the free parameters in their own units (the NLP sees value / scale).
+  auto column_scale = [&](int col) { return col < nf ? 1.0 / map.scale[col] : 1.0; };
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const int col = nlp.ResidualJacobianCols()[k];
+    triplets.emplace_back(nlp.ResidualJacobianRows()[k], col, values[k] * column_scale(col));
+  }
+  if (nc > 0) {
+    Eigen::VectorXd c(nc);
+    status = nlp.Constraints(w.data(), c.data());
+    if (!status.ok) throw std::runtime_error("NlpCovariance: constraints: " + status.message);
+    r.tail(nc) = constraint_weight * c;
+    values.assign(nlp.JacobianRows().size(), 0.0);
+    status = nlp.JacobianValues(w.data(), values.data());
+    if (!status.ok) throw std::runtime_error("NlpCovariance: Jacobian: " + status.message);
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      const int col = nlp.JacobianCols()[k];
+      triplets.emplace_back(nr + nlp.JacobianRows()[k], col,
+                            constraint_weight * values[k] * column_scale(col));
+    }
+  }
+  Eigen::SparseMatrix<double> j(nr + nc, nw);
+  j.setFromTriplets(triplets.begin(), triplets.end());
+  const Eigen::SparseMatrix<double> info = Eigen::SparseMatrix<double>(j.transpose() * j);
+  Eigen::MatrixXd reduced = Eigen::MatrixXd(info.topLeftCorner(nf, nf));
+  const int nn = nw - nf;
+  if (nn > 0) {  // Schur complement of the nuisance block (sparse: shooting nodes, states)
+    const Eigen::SparseMatrix<double> inn = info.bottomRightCorner(nn, nn);
+    const Eigen::MatrixXd int_ = Eigen::MatrixXd(info.bottomLeftCorner(nn, nf));
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(inn);
+    if (ldlt.info() != Eigen::Success) {
+      reduced.setConstant(std::nan(""));
+    } else {
+      reduced -= int_.transpose() * ldlt.solve(int_);
+    }
+  }
+  std::vector<models::ModelParameter> params = map.source;
+  const Eigen::VectorXd p = map.Values(w);
+  for (std::size_t i = 0; i < params.size(); ++i) params[i].value = p[static_cast<Eigen::Index>(i)];
+  const double dof = std::max<double>(1.0, static_cast<double>(nr + nc - nw));
+  return CovarianceFromInformation(reduced, r.squaredNorm() / dof, nr + nc, params, map.free,
+                                   options);
 }
 
 UncertaintyReport SimulationCovariance(const Integrator& integrator,

@@ -20,6 +20,8 @@ using expr::Workspace;
 struct Nlp::Prepared {
   int nz = 0, nd = 0, nc = 0, nr = 0;
   bool has_objective = false;
+  Function combined;  // z, d -> f (objective contribution), c, r; source of the lazy ones
+  bool objective_ready = false, hessian_ready = false;
   Function objective;  // z, d -> f_e + 1/2 |r_e|^2
   Function gradient;   // z, d -> d objective / dz
   Function constraints;
@@ -135,27 +137,22 @@ int Nlp::AddGroup(ElementGroup group) {
   p->has_objective = jf >= 0 || jr >= 0;
   std::vector<Expr> cons = jc >= 0 ? fn.OutputExprs(jc) : std::vector<Expr>{};
   std::vector<Expr> res = jr >= 0 ? fn.OutputExprs(jr) : std::vector<Expr>{};
-  const Function combined(group.name, ins, {{"f", {obj}}, {"c", cons}, {"r", res}});
-  p->objective = Function(group.name + "_f", ins, {{"f", {obj}}});
-  p->gradient = combined.Gradient("f", "z");
+  p->combined = Function(group.name, ins, {{"f", {obj}}, {"c", cons}, {"r", res}});
+  const Function& combined = p->combined;
+  // Built now: what the sparsity structures need (and all a least-squares backend uses). The
+  // objective, its gradient and the Hessian of the Lagrangian follow on first use.
   p->constraints = Function(group.name + "_c", ins, {{"c", cons}});
   p->jac_c = combined.Jacobian("c", "z");
   p->jac_c_sp = p->jac_c.OutputSparsity(0);
   p->residuals = Function(group.name + "_r", ins, {{"r", res}});
   p->jac_r = combined.Jacobian("r", "z");
   p->jac_r_sp = p->jac_r.OutputSparsity(0);
-  p->hessian = expr::HessianOfLagrangian(combined, "z", "f", "c");
-  p->hess_sp = p->hessian.OutputSparsity(0);
-  p->ws_obj = p->objective.MakeWorkspace();
-  p->ws_grad = p->gradient.MakeWorkspace();
   p->ws_c = p->constraints.MakeWorkspace();
   p->ws_jc = p->jac_c.MakeWorkspace();
   p->ws_r = p->residuals.MakeWorkspace();
   p->ws_jr = p->jac_r.MakeWorkspace();
-  p->ws_h = p->hessian.MakeWorkspace();
   p->z.resize(p->nz);
-  p->buffer.resize(
-      std::max({p->nz, p->nc, p->nr, p->jac_c_sp.nnz(), p->jac_r_sp.nnz(), p->hess_sp.nnz(), 1}));
+  p->buffer.resize(std::max({p->nz, p->nc, p->nr, p->jac_c_sp.nnz(), p->jac_r_sp.nnz(), 1}));
   p->constraint_offset = num_constraints_;
   p->residual_offset = num_residuals_;
   // Jacobian triplets.
@@ -178,8 +175,51 @@ int Nlp::AddGroup(ElementGroup group) {
   const int offset = p->constraint_offset;
   groups_.push_back(std::move(group));
   prepared_.push_back(std::move(p));
-  BuildHessianStructure();
+  hessian_ready_ = false;
   return offset;
+}
+
+void Nlp::EnsureObjective() const {
+  for (const auto& pp : prepared_) {
+    Prepared& p = *pp;
+    if (p.objective_ready) continue;
+    const std::vector<FunctionIo> ins = {{"z", p.combined.InputSymbols(0)},
+                                         {"d", p.combined.InputSymbols(1)}};
+    p.objective = Function(p.combined.name() + "_f", ins, {{"f", p.combined.OutputExprs(0)}});
+    p.gradient = p.combined.Gradient("f", "z");
+    p.ws_obj = p.objective.MakeWorkspace();
+    p.ws_grad = p.gradient.MakeWorkspace();
+    p.objective_ready = true;
+  }
+}
+
+void Nlp::EnsureHessian() const {
+  if (hessian_ready_) return;
+  for (const auto& pp : prepared_) {
+    Prepared& p = *pp;
+    if (p.hessian_ready) continue;
+    p.hessian = expr::HessianOfLagrangian(p.combined, "z", "f", "c");
+    p.hess_sp = p.hessian.OutputSparsity(0);
+    p.ws_h = p.hessian.MakeWorkspace();
+    if (p.buffer.size() < p.hess_sp.nnz()) p.buffer.resize(p.hess_sp.nnz());
+    p.hessian_ready = true;
+  }
+  BuildHessianStructure();
+  hessian_ready_ = true;
+}
+
+const Function& Nlp::GroupResiduals(std::size_t g) const { return prepared_.at(g)->residuals; }
+
+const Function& Nlp::GroupResidualJacobian(std::size_t g) const { return prepared_.at(g)->jac_r; }
+
+const std::vector<int>& Nlp::HessianRows() const {
+  EnsureHessian();
+  return hess_rows_;
+}
+
+const std::vector<int>& Nlp::HessianCols() const {
+  EnsureHessian();
+  return hess_cols_;
 }
 
 // The last point a residual block was evaluated at, and what was computed there.
@@ -223,7 +263,7 @@ void Nlp::AddResidualBlock(std::string name, std::vector<int> variables,
   external_.push_back({std::move(name), std::move(variables), std::move(block), num_residuals_});
   external_cache_.push_back(std::move(cache));
   num_residuals_ += nr;
-  BuildHessianStructure();
+  hessian_ready_ = false;
 }
 
 NlpEvalStatus Nlp::EvaluateExternal(std::size_t b, const double* w, bool with_jacobian) const {
@@ -260,7 +300,7 @@ NlpEvalStatus Nlp::EvaluateExternal(std::size_t b, const double* w, bool with_ja
   return c.status;
 }
 
-void Nlp::BuildHessianStructure() {
+void Nlp::BuildHessianStructure() const {
   std::unordered_map<std::int64_t, int> slot;
   hess_rows_.clear();
   hess_cols_.clear();
@@ -366,6 +406,7 @@ EvalStatus EvalInstance(const Function& fn, const ElementGroup& g, int e, const 
 }  // namespace
 
 NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
+  EnsureObjective();
   double sum = 0.0;
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
@@ -387,6 +428,7 @@ NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
 }
 
 NlpEvalStatus Nlp::Gradient(const double* w, double* grad) const {
+  EnsureObjective();
   Eigen::Map<Eigen::VectorXd>(grad, NumVariables()).setZero();
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
@@ -478,6 +520,7 @@ NlpEvalStatus Nlp::ResidualJacobianValues(const double* w, double* values) const
 
 NlpEvalStatus Nlp::HessianValues(const double* w, double sigma, const double* lambda,
                                  double* values) const {
+  EnsureHessian();
   Eigen::Map<Eigen::VectorXd>(values, static_cast<Eigen::Index>(hess_rows_.size())).setZero();
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];

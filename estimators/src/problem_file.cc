@@ -953,7 +953,7 @@ Problem ParseProblem(const std::string& text, const std::string& path) {
     throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
   }
   const Section top(path, root, "");
-  top.Allow({"problem", "model", "data", "estimation"});
+  top.Allow({"problem", "model", "data", "estimation", "metrics"});
   problem.name = fs::path(path).stem().string();
   if (auto p = top.Sub("problem")) {
     p->Allow({"name", "description"});
@@ -963,6 +963,13 @@ Problem ParseProblem(const std::string& text, const std::string& path) {
   ParseModel(top, &problem);
   ParseData(top, &problem);
   ParseEstimation(top, &problem);
+  if (auto m = top.Sub("metrics")) {
+    m->Allow({"n_step", "n_step_stride"});
+    problem.metrics.where = m->Where();
+    problem.metrics.n_step = static_cast<int>(m->Integer("n_step", 0, 1000000).value_or(0));
+    problem.metrics.n_step_stride =
+        static_cast<int>(m->Integer("n_step_stride", 1, 1000000).value_or(1));
+  }
   // Every model output must be measured in every data entry (ParseMapping) and equation error
   // needs the outputs it differentiates; nothing else to cross-check before the data are read.
   return problem;

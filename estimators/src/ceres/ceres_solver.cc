@@ -145,12 +145,8 @@ SolverResult SolveWithCeres(const Nlp& nlp, const CeresOptions& options) {
                                     "only");
       }
     }
-    const int jr = group.fn.OutputIndex("r");
-    fns[g].residual = Function(group.name + "_r",
-                               {{"z", group.fn.InputSymbols(group.fn.InputIndex("z"))},
-                                {"d", group.fn.InputSymbols(group.fn.InputIndex("d"))}},
-                               {{"r", group.fn.OutputExprs(jr)}});
-    fns[g].jacobian = fns[g].residual.Jacobian("r", "z");
+    fns[g].residual = nlp.GroupResiduals(g);
+    fns[g].jacobian = nlp.GroupResidualJacobian(g);
     fns[g].pattern = fns[g].jacobian.OutputSparsity(0);
     fns[g].pattern_col = fns[g].pattern.ColumnOfNonzeros();
   }

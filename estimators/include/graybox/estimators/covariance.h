@@ -24,6 +24,8 @@
 
 #include "graybox/estimators/integrators.h"
 #include "graybox/estimators/multiple_shooting.h"
+#include "graybox/estimators/nlp.h"
+#include "graybox/estimators/parameter_map.h"
 #include "graybox/models/model.h"
 
 namespace graybox::estimators {
@@ -67,6 +69,25 @@ UncertaintyReport CovarianceFromJacobian(const Eigen::MatrixXd& jacobian,
                                          const std::vector<models::ModelParameter>& parameters,
                                          const std::vector<int>& free_indices,
                                          const CovarianceOptions& options = {});
+
+/// The same from an information matrix already reduced to the free parameters (nf x nf, in the
+/// parameters' own units) and the residual variance sigma^2.
+UncertaintyReport CovarianceFromInformation(const Eigen::MatrixXd& information,
+                                            double residual_variance, int num_residuals,
+                                            const std::vector<models::ModelParameter>& parameters,
+                                            const std::vector<int>& free_indices,
+                                            const CovarianceOptions& options = {});
+
+/// Gauss-Newton covariance of an Nlp's least-squares objective at w, whose first
+/// map.NumFree() variables are the free parameters (scaled by map.scale) and all others nuisance
+/// variables (shooting nodes, collocation states) marginalised by a sparse Schur complement, so
+/// the cost stays linear in the record length. With constraint_weight > 0 the constraints c = 0
+/// enter as residuals constraint_weight * c (multiple shooting's continuity, as the Ceres form
+/// penalises it); with 0 they are ignored. Unlike SimulationCovariance it never simulates the
+/// whole record, so it stays finite for models whose open-loop simulation drifts (robots driven
+/// by measured torques). Throws std::runtime_error when an evaluation fails.
+UncertaintyReport NlpCovariance(const Nlp& nlp, const Eigen::VectorXd& w, const ParameterMap& map,
+                                double constraint_weight, const CovarianceOptions& options = {});
 
 /// Output-error covariance of a fitted StateSpaceModel: simulates every experiment from its
 /// initial state with the parameter vector `p` by `integrator` (RK4 or CVODES, bound to the

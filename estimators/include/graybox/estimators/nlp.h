@@ -114,12 +114,18 @@ class Nlp {
 
   /// Lower triangle (row >= col) of the Hessian of the Lagrangian
   ///   sigma * (sum f_e + 1/2 sum |r_e|^2) + lambda^T g, duplicates merged.
-  const std::vector<int>& HessianRows() const { return hess_rows_; }
-  const std::vector<int>& HessianCols() const { return hess_cols_; }
+  /// (The Hessian Functions are built on the first call of these or of HessianValues, the
+  /// objective's on the first Objective or Gradient: a least-squares backend never pays for them.)
+  const std::vector<int>& HessianRows() const;
+  const std::vector<int>& HessianCols() const;
   NlpEvalStatus HessianValues(const double* w, double sigma, const double* lambda,
                               double* values) const;
 
   const std::vector<ElementGroup>& groups() const { return groups_; }
+  /// Group g's residual Function (z, d -> r) and its Jacobian (z, d -> the nonzeros of d r / d z,
+  /// pattern OutputSparsity(0)), for backends that evaluate element by element.
+  const expr::Function& GroupResiduals(std::size_t g) const;
+  const expr::Function& GroupResidualJacobian(std::size_t g) const;
 
   struct ExternalBlock {
     std::string name;
@@ -134,7 +140,9 @@ class Nlp {
   struct ExternalCache;
   // Evaluates residual block b at w (cached per point); jacobian only when `with_jacobian`.
   NlpEvalStatus EvaluateExternal(std::size_t b, const double* w, bool with_jacobian) const;
-  void BuildHessianStructure();
+  void EnsureObjective() const;
+  void EnsureHessian() const;
+  void BuildHessianStructure() const;
 
   Eigen::VectorXd w0_, lbw_, ubw_;
   std::vector<std::string> names_;
@@ -142,12 +150,14 @@ class Nlp {
   std::vector<std::shared_ptr<Prepared>> prepared_;
   std::vector<ExternalBlock> external_;
   std::vector<std::shared_ptr<ExternalCache>> external_cache_;
-  std::vector<std::vector<int>> external_hess_slot_;  // lower-triangle pairs -> global entry
+  mutable std::vector<std::vector<int>>
+      external_hess_slot_;  // lower-triangle pairs -> global entry
   int num_constraints_ = 0;
   int num_residuals_ = 0;
   std::vector<int> jac_rows_, jac_cols_;
   std::vector<int> rjac_rows_, rjac_cols_;
-  std::vector<int> hess_rows_, hess_cols_;
+  mutable bool hessian_ready_ = true;
+  mutable std::vector<int> hess_rows_, hess_cols_;
 };
 
 }  // namespace graybox::estimators

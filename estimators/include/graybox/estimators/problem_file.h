@@ -198,6 +198,16 @@ struct EstimationSpec {
   SourceLocation where;
 };
 
+/// [metrics]: evaluations beyond the whole-split simulation metrics.
+struct MetricsSpec {
+  /// N of the N-step-ahead NRMS (seed 000 eq. 7) reported for every split: from the measured
+  /// state at every start, N samples simulated with RK4 (`substeps`) and compared with the
+  /// measured states. 0 = off. Needs the states from the data (as `node_guess = "data"`).
+  int n_step = 0;
+  int n_step_stride = 1;  // every stride-th start
+  SourceLocation where;
+};
+
 struct Problem {
   std::string path;       // as given to LoadProblem
   std::string directory;  // folder of the file, against which data paths resolve
@@ -210,6 +220,7 @@ struct Problem {
   std::vector<std::pair<std::string, std::string>> blocks;
   std::vector<DataSpec> data;
   EstimationSpec estimation;
+  MetricsSpec metrics;
 };
 
 /// Reads, parses and checks a problem file (no data is read). Throws ProblemFileError.

@@ -117,6 +117,29 @@ TEST(Cli, EmpsClosedLoopAgreesWithIdim) {
   EXPECT_EQ(Value(result, "controller.kp"), 160.18);
 }
 
+// Ceres with continuity residuals (weight 1e7) and Ipopt with continuity constraints solve the
+// same closed-loop problem: 4-5 digits agree (problems/emps/README.md).
+TEST(Cli, EmpsClosedLoopOnCeresAgreesWithIpopt) {
+  if (!HaveEmps()) GTEST_SKIP() << "no EMPS data";
+  ScratchDir dir;
+  const RunResult ipopt =
+      RunGraybox("fit '" + kEmpsDir + "/emps_closed_loop.toml' --out '" + (dir / "ipopt") + "'",
+                 dir / "log_ipopt.txt");
+  const RunResult ceres = RunGraybox(
+      "fit '" + kEmpsDir + "/emps_closed_loop_ceres.toml' --out '" + (dir / "ceres") + "'",
+      dir / "log_ceres.txt");
+  ASSERT_EQ(ipopt.exit_code, 0) << ipopt.output;
+  ASSERT_EQ(ceres.exit_code, 0) << ceres.output;
+  const Json a = ReadJson(dir / "ipopt/result.json");
+  const Json b = ReadJson(dir / "ceres/result.json");
+  EXPECT_EQ(b["solver"], "ceres");
+  constexpr double kSolverAgreement = 1e-3;  // penalty 1e7 vs exact continuity
+  for (const char* name : {"load.mass", "viscous.fv", "coulomb.fc", "offset.f_asym"}) {
+    EXPECT_NEAR(Value(b, name), Value(a, name), kSolverAgreement * std::fabs(Value(a, name)))
+        << name;
+  }
+}
+
 class GeneratedCli : public ::testing::Test {
  protected:
   void SetUp() override { WriteText(dir_ / "pushed.csv", PushedCsv()); }

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -289,20 +290,42 @@ models::BlockOptions ParseBlockOptions(const Section& s) {
   return options;
 }
 
-void ApplyParameter(const Section& parameters, const std::string& name, const toml::node& node,
-                    Problem* problem) {
+// '*' matches any run of characters (possibly empty); every other character matches itself.
+bool GlobMatch(const std::string& pattern, const std::string& text) {
+  std::size_t p = 0, t = 0, star = std::string::npos, mark = 0;
+  while (t < text.size()) {
+    if (p < pattern.size() && pattern[p] == '*') {
+      star = p++;
+      mark = t;
+    } else if (p < pattern.size() && pattern[p] == text[t]) {
+      ++p;
+      ++t;
+    } else if (star != std::string::npos) {
+      p = star + 1;
+      t = ++mark;
+    } else {
+      return false;
+    }
+  }
+  while (p < pattern.size() && pattern[p] == '*') ++p;
+  return p == pattern.size();
+}
+
+// Applies the entry `key` (a parameter name, or a pattern that matched parameter `name`).
+void ApplyParameter(const Section& parameters, const std::string& key, const std::string& name,
+                    const toml::node& node, Problem* problem) {
   models::ModelParameter* par = nullptr;
   try {
     par = &problem->model.Parameter(name);
   } catch (const std::invalid_argument& e) {
-    parameters.Fail(name, e.what());
+    parameters.Fail(key, e.what());
   }
   std::optional<double> value, lower, upper, scale;
   std::optional<bool> free;
   if (node.is_number()) {
-    value = parameters.NumberOf(node, name);
+    value = parameters.NumberOf(node, key);
   } else if (node.is_table()) {
-    const Section p(parameters.file(), *node.as_table(), parameters.Join(name));
+    const Section p(parameters.file(), *node.as_table(), parameters.Join(key));
     p.Allow({"value", "lower", "upper", "free", "scale"});
     value = p.Number("value");
     // Bounds may be infinite (TOML's inf and -inf); values and scales may not.
@@ -319,22 +342,22 @@ void ApplyParameter(const Section& parameters, const std::string& name, const to
     scale = p.PositiveNumber("scale");
     free = p.Bool("free");
   } else {
-    parameters.Fail(name, "parameter '" + name +
-                              "': expected a number or a table {value, lower, "
-                              "upper, free, scale}, got " +
-                              ValueText(node));
+    parameters.Fail(key, "parameter '" + name +
+                             "': expected a number or a table {value, lower, "
+                             "upper, free, scale}, got " +
+                             ValueText(node));
   }
   const double lo = lower.value_or(par->lower), hi = upper.value_or(par->upper);
   if (!(lo <= hi)) {
-    parameters.Fail(name, "parameter '" + name +
-                              "': infeasible bounds: expected lower <= upper, got lower = " +
-                              Format(lo) + " > upper = " + Format(hi));
+    parameters.Fail(key, "parameter '" + name +
+                             "': infeasible bounds: expected lower <= upper, got lower = " +
+                             Format(lo) + " > upper = " + Format(hi));
   }
   const double v = value.value_or(par->value);
   if (v < lo || v > hi) {
-    parameters.Fail(name, "parameter '" + name + "': expected a value in [" + Format(lo) + ", " +
-                              Format(hi) + "], got " + Format(v) +
-                              (value ? "" : " (the block's nominal value)"));
+    parameters.Fail(key, "parameter '" + name + "': expected a value in [" + Format(lo) + ", " +
+                             Format(hi) + "], got " + Format(v) +
+                             (value ? "" : " (the block's nominal value)"));
   }
   par->lower = lo;
   par->upper = hi;
@@ -394,8 +417,30 @@ void ParseModel(const Section& root, Problem* problem) {
   if (outputs.empty()) m.Fail("", "missing key 'outputs': expected the measured output signals");
   for (const auto& o : outputs) problem->model.AddOutput(o);
   if (auto parameters = m.Sub("parameters")) {
+    // Patterns ('*' matches any run of characters) first, then exact names, which override.
+    std::map<std::string, std::string> matched_by;
     for (auto&& [k, v] : parameters->table()) {
-      ApplyParameter(*parameters, std::string(k.str()), v, problem);
+      const std::string key(k.str());
+      if (key.find('*') == std::string::npos) continue;
+      int matches = 0;
+      for (const models::ModelParameter& par : problem->model.parameters()) {
+        if (!GlobMatch(key, par.name)) continue;
+        auto [it, inserted] = matched_by.emplace(par.name, key);
+        if (!inserted) {
+          parameters->Fail(key, "parameter '" + par.name + "' is matched by the patterns '" +
+                                    it->second + "' and '" + key +
+                                    "': expected at most one pattern per parameter");
+        }
+        ApplyParameter(*parameters, key, par.name, v, problem);
+        ++matches;
+      }
+      if (matches == 0) {
+        parameters->Fail(key, "pattern '" + key + "' matches no model parameter");
+      }
+    }
+    for (auto&& [k, v] : parameters->table()) {
+      const std::string key(k.str());
+      if (key.find('*') == std::string::npos) ApplyParameter(*parameters, key, key, v, problem);
     }
   }
   try {

@@ -330,3 +330,39 @@ TEST(ProblemFile, SyntaxErrorsCarryTomlsPosition) {
 
 }  // namespace
 }  // namespace graybox::estimators
+
+namespace graybox::estimators {
+namespace {
+
+std::string WithParameters(const std::string& parameters) {
+  return apps_testing::PushedProblem(
+      "[estimation]\nmethod = \"multiple_shooting\"\nsolver = \"ipopt\"\n", parameters);
+}
+
+// Patterns ('*') apply first, exact names override them; a parameter matched twice and a pattern
+// matching nothing are errors naming the line.
+TEST(ProblemFile, ParameterPatternsApplyThenExactNamesOverride) {
+  const Problem p = ParseProblem(WithParameters("\"*\" = { free = false, scale = 2.0 }\n"
+                                                "\"load.mass\" = { value = 3.0, free = true }\n"),
+                                 "pattern.toml");
+  const models::StateSpaceModel& m = p.built;
+  const auto& mass = m.parameters[m.ParameterIndex("load.mass")];
+  const auto& fv = m.parameters[m.ParameterIndex("friction.fv")];
+  EXPECT_TRUE(mass.free);
+  EXPECT_EQ(mass.value, 3.0);
+  EXPECT_EQ(mass.scale, 2.0);  // from the pattern, not overridden
+  EXPECT_FALSE(fv.free);
+  EXPECT_EQ(fv.scale, 2.0);
+
+  const std::string twice = WithParameters("\"*\" = { free = false }\n\"fric*\" = 1.0\n");
+  const ProblemFileError e = ErrorOf([&] { ParseProblem(twice, "twice.toml"); });
+  EXPECT_TRUE(Contains(e.what(), "matched by the patterns '*' and 'fric*'")) << e.what();
+  EXPECT_EQ(e.where().line, LineOf(twice, "\"fric*\""));
+
+  const std::string none = WithParameters("\"motor.*\" = { free = false }\n");
+  const ProblemFileError n = ErrorOf([&] { ParseProblem(none, "none.toml"); });
+  EXPECT_TRUE(Contains(n.what(), "pattern 'motor.*' matches no model parameter")) << n.what();
+}
+
+}  // namespace
+}  // namespace graybox::estimators

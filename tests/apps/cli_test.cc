@@ -179,6 +179,40 @@ TEST_F(GeneratedCli, FitRecoversKnownParametersAndSimulateReadsTheResult) {
   EXPECT_FALSE(fs::exists(dir_ / "sim2"));
 }
 
+// Single shooting simulates through the integrator of [estimation.integrator] (here CVODES with
+// forward sensitivities) and recovers the same parameters; x0 is estimated.
+TEST_F(GeneratedCli, SingleShootingThroughCvodesRecoversKnownParameters) {
+  const RunResult r =
+      Fit(PushedProblem("[estimation]\n"
+                        "method = \"single_shooting\"\n"
+                        "solver = \"ceres\"\n"
+                        "[estimation.integrator]\n"
+                        "method = \"cvodes\"\n"
+                        "relative_tolerance = 1e-10\n"
+                        "absolute_tolerance = 1e-12\n"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJson(dir_ / "out/result.json");
+  EXPECT_EQ(result["formulation"]["integrator"], "cvodes");
+  // CVODES integrates the continuous model the closed form solves; its tolerances, not a
+  // discretisation, bound the error.
+  constexpr double kCvodesRecovery = 1e-5;
+  EXPECT_NEAR(Value(result, "load.mass"), kTrueMass, kCvodesRecovery * kTrueMass);
+  EXPECT_NEAR(Value(result, "friction.fv"), kTrueViscous, kCvodesRecovery * kTrueViscous);
+  EXPECT_TRUE(std::isfinite(result["parameters"]["load.mass"]["std_error"].get<double>()));
+}
+
+TEST_F(GeneratedCli, UnknownIntegratorKeyIsBadInputWithItsLine) {
+  const RunResult r =
+      Fit(PushedProblem("[estimation]\n"
+                        "method = \"single_shooting\"\n"
+                        "[estimation.integrator]\n"
+                        "method = \"cvodes\"\n"
+                        "relative_tolerence = 1e-8\n"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("relative_tolerence"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("relative_tolerance"), std::string::npos) << r.output;  // suggestion
+}
+
 TEST_F(GeneratedCli, SolverFailureExits3AndStillWritesResultJson) {
   const RunResult r = Fit(PushedProblem() + "[estimation.ipopt]\nmax_iterations = 1\n");
   ASSERT_EQ(r.exit_code, 3) << r.output;

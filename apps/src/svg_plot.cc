@@ -17,7 +17,7 @@ constexpr double kWidth = 960.0;
 constexpr double kPanelHeight = 230.0;
 constexpr double kLeft = 90.0;
 constexpr double kRight = 20.0;
-constexpr double kTitleHeight = 36.0;
+constexpr double kTitleHeight = 56.0;  // figure title at y = 22, first panel title at 50
 constexpr double kPanelGap = 46.0;
 constexpr double kBottom = 44.0;
 

@@ -35,7 +35,7 @@ SignalInfo Torque(double max_torque) {
 class ViscousFriction : public BlockBase<ViscousFriction> {
  public:
   explicit ViscousFriction(const BlockOptions& options) {
-    CheckOptionKeys(kViscousFriction, options, {});
+    CheckOptionKeys(kViscousFriction, options, {"motion"});
     info_.type = kViscousFriction;
     info_.description = "Linear viscous friction tau = fv qd.";
     info_.reference = "seed 002 eq. 5-1; nominal fv from seed 002 Table 8.2 (linear model)";
@@ -43,6 +43,7 @@ class ViscousFriction : public BlockBase<ViscousFriction> {
     info_.outputs = {Torque(0.2)};
     info_.parameters = {
         MakeParameter("fv", "N m s/rad", "viscous friction coefficient", 0.00963, 0.0, kInf, 0.0)};
+    ApplyMotionUnits(kViscousFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -54,7 +55,7 @@ class ViscousFriction : public BlockBase<ViscousFriction> {
 class CoulombFriction : public BlockBase<CoulombFriction> {
  public:
   explicit CoulombFriction(const BlockOptions& options) {
-    CheckOptionKeys(kCoulombFriction, options, {"steepness"});
+    CheckOptionKeys(kCoulombFriction, options, {"steepness", "motion"});
     steepness_is_parameter_ = !HasNumber(options, "steepness");
     steepness_ = PositiveOption(kCoulombFriction, options, "steepness", kDefaultFrictionSteepness);
     info_.type = kCoulombFriction;
@@ -71,6 +72,7 @@ class CoulombFriction : public BlockBase<CoulombFriction> {
                                                "slope of tanh(s qd) at qd = 0 divided by fc",
                                                kDefaultFrictionSteepness, 1e-3, 1e7));
     }
+    ApplyMotionUnits(kCoulombFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -87,7 +89,7 @@ class CoulombFriction : public BlockBase<CoulombFriction> {
 class OffsetFriction : public BlockBase<OffsetFriction> {
  public:
   explicit OffsetFriction(const BlockOptions& options) {
-    CheckOptionKeys(kOffsetFriction, options, {});
+    CheckOptionKeys(kOffsetFriction, options, {"motion"});
     info_.type = kOffsetFriction;
     info_.description =
         "Constant, direction-independent friction offset tau = f_asym (the asymmetric part of a "
@@ -97,6 +99,7 @@ class OffsetFriction : public BlockBase<OffsetFriction> {
     info_.outputs = {Torque(50.0)};
     info_.parameters = {
         MakeParameter("f_asym", "N m", "constant friction offset", 0.0, -kInf, kInf, 0.0)};
+    ApplyMotionUnits(kOffsetFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -108,7 +111,7 @@ class OffsetFriction : public BlockBase<OffsetFriction> {
 class StribeckFriction : public BlockBase<StribeckFriction> {
  public:
   explicit StribeckFriction(const BlockOptions& options) {
-    CheckOptionKeys(kStribeckFriction, options, {"steepness", "exponent"});
+    CheckOptionKeys(kStribeckFriction, options, {"steepness", "exponent", "motion"});
     steepness_ = PositiveOption(kStribeckFriction, options, "steepness", kDefaultFrictionSteepness);
     exponent_ = PositiveOption(kStribeckFriction, options, "exponent", 2.0);
     info_.type = kStribeckFriction;
@@ -124,6 +127,7 @@ class StribeckFriction : public BlockBase<StribeckFriction> {
         MakeParameter("fs", "N m", "static friction level (at qd -> 0)", 1.03e-5, 0.0, kInf, 0.0),
         MakeParameter("vs", "rad/s", "Stribeck velocity", 0.1677, 1e-6, 1e3),
         MakeParameter("fv", "N m s/rad", "viscous friction coefficient", 0.002, 0.0, kInf, 0.0)};
+    ApplyMotionUnits(kStribeckFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -141,7 +145,7 @@ class StribeckFriction : public BlockBase<StribeckFriction> {
 class PowerViscousFriction : public BlockBase<PowerViscousFriction> {
  public:
   explicit PowerViscousFriction(const BlockOptions& options) {
-    CheckOptionKeys(kPowerViscousFriction, options, {"smoothing"});
+    CheckOptionKeys(kPowerViscousFriction, options, {"smoothing", "motion"});
     smoothing_ = PositiveOption(kPowerViscousFriction, options, "smoothing", 1e-3);
     info_.type = kPowerViscousFriction;
     info_.description =
@@ -155,6 +159,7 @@ class PowerViscousFriction : public BlockBase<PowerViscousFriction> {
                       kInf, 0.0),
         MakeParameter("k", "1", "velocity exponent (seed 001 k2; 1 = linear viscous)", 1.0, 0.1,
                       3.0)};
+    ApplyMotionUnits(kPowerViscousFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -171,7 +176,7 @@ class PowerViscousFriction : public BlockBase<PowerViscousFriction> {
 class DahlFriction : public BlockBase<DahlFriction> {
  public:
   explicit DahlFriction(const BlockOptions& options) {
-    CheckOptionKeys(kDahlFriction, options, {});
+    CheckOptionKeys(kDahlFriction, options, {"motion"});
     info_.type = kDahlFriction;
     info_.description =
         "Dahl friction: bristle deflection z with dz/dt = qd - sigma0 |qd| z / fc, tau = sigma0 z "
@@ -185,6 +190,7 @@ class DahlFriction : public BlockBase<DahlFriction> {
         MakeParameter("fc", "N m", "Coulomb friction level (saturation of tau)", 0.0379, 1e-9,
                       kInf)};
     info_.stiff = true;
+    ApplyMotionUnits(kDahlFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -201,7 +207,7 @@ class DahlFriction : public BlockBase<DahlFriction> {
 class LuGreFriction : public BlockBase<LuGreFriction> {
  public:
   explicit LuGreFriction(const BlockOptions& options) {
-    CheckOptionKeys(kLuGreFriction, options, {"exponent"});
+    CheckOptionKeys(kLuGreFriction, options, {"exponent", "motion"});
     exponent_ = PositiveOption(kLuGreFriction, options, "exponent", 2.0);
     info_.type = kLuGreFriction;
     info_.description =
@@ -222,6 +228,7 @@ class LuGreFriction : public BlockBase<LuGreFriction> {
         MakeParameter("fs", "N m", "static friction level", 0.8795, 1e-9, kInf),
         MakeParameter("vs", "rad/s", "Stribeck velocity", 3.15e-5, 1e-6, 1e3)};
     info_.stiff = true;
+    ApplyMotionUnits(kLuGreFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -243,7 +250,7 @@ class LuGreFriction : public BlockBase<LuGreFriction> {
 class TorqueDependentFriction : public BlockBase<TorqueDependentFriction> {
  public:
   explicit TorqueDependentFriction(const BlockOptions& options) {
-    CheckOptionKeys(kTorqueDependentFriction, options, {"steepness", "torque_steepness"});
+    CheckOptionKeys(kTorqueDependentFriction, options, {"steepness", "torque_steepness", "motion"});
     steepness_ =
         PositiveOption(kTorqueDependentFriction, options, "steepness", kDefaultFrictionSteepness);
     torque_steepness_ =
@@ -268,6 +275,7 @@ class TorqueDependentFriction : public BlockBase<TorqueDependentFriction> {
         MakeParameter("distance", "rad", "relaxation distance (seed 001 k5)", 0.05, 1e-6, 1e3),
         MakeParameter("time", "s", "standstill relaxation time (seed 001 k6)", 0.1, 1e-4, 1e4)};
     info_.stiff = true;
+    ApplyMotionUnits(kTorqueDependentFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
@@ -292,7 +300,7 @@ class TorqueDependentFriction : public BlockBase<TorqueDependentFriction> {
 class RippleFriction : public BlockBase<RippleFriction> {
  public:
   explicit RippleFriction(const BlockOptions& options) {
-    CheckOptionKeys(kRippleFriction, options, {"harmonics", "period"});
+    CheckOptionKeys(kRippleFriction, options, {"harmonics", "period", "motion"});
     harmonics_ = IntegerOption(kRippleFriction, options, "harmonics", 1, 1, 1000);
     period_ = PositiveOption(kRippleFriction, options, "period", 2.0 * kPi);
     info_.type = kRippleFriction;
@@ -310,6 +318,7 @@ class RippleFriction : public BlockBase<RippleFriction> {
       info_.parameters.push_back(
           MakeParameter("b" + n, "N m", "sine amplitude of harmonic " + n, 0.0, -kInf, kInf, 0.0));
     }
+    ApplyMotionUnits(kRippleFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {

@@ -105,6 +105,31 @@ inline std::string WordOption(const std::string& type, const BlockOptions& optio
                               (hint.empty() ? "" : "; did you mean '" + hint + "'?"));
 }
 
+/// Option "motion" of the friction blocks: "rotational" (default; units rad, rad/s, N m) or
+/// "prismatic" (a sliding axis: m, m/s, N). The equations are the same; only the units of the
+/// signals and parameters in `info` are rewritten (N m -> N, kg m^2 -> kg, rad -> m).
+inline void ApplyMotionUnits(const std::string& type, const BlockOptions& options,
+                             BlockInfo* info) {
+  if (WordOption(type, options, "motion", "rotational", {"rotational", "prismatic"}) ==
+      "rotational") {
+    return;
+  }
+  auto linear = [](std::string u) {
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"kg m^2", "kg"}, {"N m", "N"}, {"rad", "m"}}) {
+      for (std::size_t at = u.find(from); at != std::string::npos; at = u.find(from, at)) {
+        u.replace(at, from.size(), to);
+        at += to.size();
+      }
+    }
+    return u;
+  };
+  for (auto* signals : {&info->inputs, &info->outputs, &info->states}) {
+    for (auto& s : *signals) s.unit = linear(s.unit);
+  }
+  for (auto& p : info->parameters) p.unit = linear(p.unit);
+}
+
 // ---- Smooth functions (see friction.h, "Smoothing") ---------------------------------------------
 
 /// tanh(s x): sign(x) for |x| >> 1/s, slope s at 0.

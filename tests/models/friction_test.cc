@@ -564,5 +564,32 @@ TEST(Friction, DerivativesMatchFiniteDifferencesInScaledCoordinates) {
   testing::ExpectBlockDerivativesMatch(*Make(kKukaFriction, kuka), testing::TestSeed());
 }
 
+// motion = "prismatic" relabels the units of a sliding pair; the equations are unchanged.
+TEST(FrictionMotion, PrismaticOptionRewritesUnitsOnly) {
+  BlockOptions prismatic;
+  prismatic.words["motion"] = "prismatic";
+  const auto viscous = Make("friction.viscous", prismatic);
+  EXPECT_EQ(viscous->info().inputs[0].unit, "m/s");
+  EXPECT_EQ(viscous->info().outputs[0].unit, "N");
+  EXPECT_EQ(viscous->info().parameters[0].unit, "N s/m");
+  const auto lugre = Make("friction.lugre", prismatic);
+  for (const auto& p : lugre->info().parameters) {
+    EXPECT_EQ(p.unit.find("rad"), std::string::npos) << p.name << " " << p.unit;
+    EXPECT_EQ(p.unit.find("N m"), std::string::npos) << p.name << " " << p.unit;
+  }
+  BlockOptions rotational;
+  rotational.words["motion"] = "rotational";
+  EXPECT_EQ(Make("friction.viscous", rotational)->info().parameters[0].unit, "N m s/rad");
+  BlockOptions typo;
+  typo.words["motion"] = "prismatc";
+  try {
+    Make("friction.coulomb", typo);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'prismatic'"), std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace graybox::models

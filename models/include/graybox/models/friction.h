@@ -18,6 +18,12 @@
 // is >= 0. friction.offset and friction.ripple are not dissipative; they are subtracted the same
 // way, so f_asym > 0 means a torque opposing positive motion.
 //
+// ---- Rotational or sliding --------------------------------------------------------------------
+// Every block except friction.kuka takes the word option "motion" = "rotational" (default: the
+// units below, rad, rad/s, N m) or "prismatic" (a sliding pair such as the EMPS ball-screw stage
+// seen at the load: m, m/s, N). The equations are identical; only the units reported for the
+// signals and parameters change (N m -> N, kg m^2 -> kg, rad -> m: fv in N s/m, steepness in s/m).
+//
 // ---- Neutral values ---------------------------------------------------------------------------
 // Every friction coefficient (fv, fc, fs, ftau, f_asym, f_vis, f_coul, f_a, sigma0, sigma1,
 // sigma2, a_k, b_k) has neutral value 0: with every neutral parameter at 0 and states starting at

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -14,7 +15,61 @@ namespace graybox::estimators {
 
 namespace {
 constexpr double kZ95 = 1.959963984540054;  // two-sided 95% quantile of the normal distribution
+
+// Fills the correlation, the per-parameter estimates with intervals, and the warnings of a
+// report whose condition number is set, from the covariance of the free parameters.
+void FinishReport(const Eigen::MatrixXd& covariance,
+                  const std::vector<models::ModelParameter>& parameters,
+                  const CovarianceOptions& options, UncertaintyReport* report) {
+  const std::vector<int>& free_indices = report->free_indices;
+  const int nf = static_cast<int>(free_indices.size());
+  report->covariance = covariance;
+  report->correlation.resize(nf, nf);
+  for (int i = 0; i < nf; ++i) {
+    for (int j = 0; j < nf; ++j) {
+      report->correlation(i, j) =
+          report->covariance(i, j) / std::sqrt(report->covariance(i, i) * report->covariance(j, j));
+    }
+  }
+  for (const auto& par : parameters) {
+    ParameterEstimate e;
+    e.name = par.name;
+    e.unit = par.info.unit;
+    e.value = par.value;
+    e.free = false;
+    e.ci_low = e.ci_high = e.value;
+    report->parameters.push_back(e);
+  }
+  for (int i = 0; i < nf; ++i) {
+    ParameterEstimate& e = report->parameters.at(free_indices[i]);
+    e.free = true;
+    e.std_error = std::sqrt(report->covariance(i, i));
+    e.ci_low = e.value - kZ95 * e.std_error;
+    e.ci_high = e.value + kZ95 * e.std_error;
+  }
+  char buf[256];
+  if (!(report->condition_number <= options.max_condition)) {
+    std::snprintf(buf, sizeof buf,
+                  "poorly identifiable: the scaled information matrix has condition number %.3g "
+                  "(> %.3g); some parameter combination is barely determined by the data",
+                  report->condition_number, options.max_condition);
+    report->warnings.emplace_back(buf);
+  }
+  for (int i = 0; i < nf; ++i) {
+    for (int j = i + 1; j < nf; ++j) {
+      if (std::fabs(report->correlation(i, j)) > options.max_correlation) {
+        std::snprintf(buf, sizeof buf,
+                      "high correlation %.3f between '%s' and '%s': only their combination is "
+                      "well identified",
+                      report->correlation(i, j), report->parameters[free_indices[i]].name.c_str(),
+                      report->parameters[free_indices[j]].name.c_str());
+        report->warnings.emplace_back(buf);
+      }
+    }
+  }
 }
+
+}  // namespace
 
 UncertaintyReport CovarianceFromJacobian(const Eigen::MatrixXd& jacobian,
                                          const Eigen::VectorXd& residuals,
@@ -37,9 +92,41 @@ UncertaintyReport CovarianceFromJacobian(const Eigen::MatrixXd& jacobian,
     reduced -= info.topRightCorner(nf, nn) * ldlt.solve(info.bottomLeftCorner(nn, nf));
   }
   const double dof = std::max<double>(1.0, static_cast<double>(residuals.size() - n));
-  return CovarianceFromInformation(reduced, residuals.squaredNorm() / dof,
-                                   static_cast<int>(residuals.size()), parameters, free_indices,
-                                   options);
+  UncertaintyReport report = CovarianceFromInformation(reduced, residuals.squaredNorm() / dof,
+                                                       static_cast<int>(residuals.size()),
+                                                       parameters, free_indices, options);
+  const std::vector<int>& channel = options.row_channels;
+  if (channel.empty()) return report;
+  if (channel.size() != static_cast<std::size_t>(residuals.size())) {
+    throw std::invalid_argument("CovarianceOptions.row_channels: expected " +
+                                std::to_string(residuals.size()) + " entries, got " +
+                                std::to_string(channel.size()));
+  }
+  // One noise variance per channel (same degrees-of-freedom correction as the pooled one), and
+  // the sandwich A^-1 (J^T S J) A^-1 with A = J^T J, S = diag(sigma_c(row)^2).
+  const int nc = *std::max_element(channel.begin(), channel.end()) + 1;
+  Eigen::VectorXd ss = Eigen::VectorXd::Zero(nc), count = Eigen::VectorXd::Zero(nc);
+  for (Eigen::Index r = 0; r < residuals.size(); ++r) {
+    if (channel[r] < 0) throw std::invalid_argument("CovarianceOptions.row_channels: negative");
+    ss[channel[r]] += residuals[r] * residuals[r];
+    count[channel[r]] += 1.0;
+  }
+  const double correction = static_cast<double>(residuals.size()) / dof;
+  Eigen::VectorXd row_variance(residuals.size());
+  for (Eigen::Index r = 0; r < residuals.size(); ++r) {
+    row_variance[r] = correction * ss[channel[r]] / count[channel[r]];
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> a(info);
+  if (a.info() != Eigen::Success || !(report.condition_number < 1e14)) return report;  // NaN
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(n, nf);
+  e.topRows(nf).setIdentity();
+  const Eigen::MatrixXd x = a.solve(e);  // columns of A^-1 for the parameters
+  const Eigen::MatrixXd jx = jacobian * x;
+  const Eigen::MatrixXd covariance = jx.transpose() * row_variance.asDiagonal() * jx;
+  report.warnings.clear();
+  report.parameters.clear();
+  FinishReport(covariance, parameters, options, &report);
+  return report;
 }
 
 UncertaintyReport CovarianceFromInformation(const Eigen::MatrixXd& information,
@@ -80,50 +167,7 @@ UncertaintyReport CovarianceFromInformation(const Eigen::MatrixXd& information,
   } else {
     cov_full = Eigen::MatrixXd::Constant(n, n, std::nan(""));
   }
-  report.covariance = cov_full.topLeftCorner(nf, nf);
-  report.correlation.resize(nf, nf);
-  for (int i = 0; i < nf; ++i) {
-    for (int j = 0; j < nf; ++j) {
-      report.correlation(i, j) =
-          report.covariance(i, j) / std::sqrt(report.covariance(i, i) * report.covariance(j, j));
-    }
-  }
-  for (const auto& par : parameters) {
-    ParameterEstimate e;
-    e.name = par.name;
-    e.unit = par.info.unit;
-    e.value = par.value;
-    e.free = false;
-    e.ci_low = e.ci_high = e.value;
-    report.parameters.push_back(e);
-  }
-  for (int i = 0; i < nf; ++i) {
-    ParameterEstimate& e = report.parameters.at(free_indices[i]);
-    e.free = true;
-    e.std_error = std::sqrt(report.covariance(i, i));
-    e.ci_low = e.value - kZ95 * e.std_error;
-    e.ci_high = e.value + kZ95 * e.std_error;
-  }
-  char buf[256];
-  if (!(report.condition_number <= options.max_condition)) {
-    std::snprintf(buf, sizeof buf,
-                  "poorly identifiable: the scaled information matrix has condition number %.3g "
-                  "(> %.3g); some parameter combination is barely determined by the data",
-                  report.condition_number, options.max_condition);
-    report.warnings.emplace_back(buf);
-  }
-  for (int i = 0; i < nf; ++i) {
-    for (int j = i + 1; j < nf; ++j) {
-      if (std::fabs(report.correlation(i, j)) > options.max_correlation) {
-        std::snprintf(buf, sizeof buf,
-                      "high correlation %.3f between '%s' and '%s': only their combination is "
-                      "well identified",
-                      report.correlation(i, j), report.parameters[free_indices[i]].name.c_str(),
-                      report.parameters[free_indices[j]].name.c_str());
-        report.warnings.emplace_back(buf);
-      }
-    }
-  }
+  FinishReport(cov_full, parameters, options, &report);
   return report;
 }
 
@@ -264,7 +308,12 @@ UncertaintyReport SimulationCovariance(const Integrator& integrator,
   }
   std::vector<models::ModelParameter> params = model.parameters;
   for (int i = 0; i < model.NumParameters(); ++i) params[i].value = p[i];
-  return CovarianceFromJacobian(jac, res, params, free, options);
+  CovarianceOptions per_output = options;
+  if (per_output.row_channels.empty()) {  // rows are time-major: row k ny + j is output j
+    per_output.row_channels.resize(static_cast<std::size_t>(total_rows));
+    for (long r = 0; r < total_rows; ++r) per_output.row_channels[r] = static_cast<int>(r % ny);
+  }
+  return CovarianceFromJacobian(jac, res, params, free, per_output);
 }
 
 UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,

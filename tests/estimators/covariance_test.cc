@@ -51,6 +51,44 @@ TEST(Covariance, LinearLeastSquaresMatchesTheClosedForm) {
   EXPECT_TRUE(rep.warnings.empty());
 }
 
+// Two output channels with noise 0.01 and 1 fitted with equal weights: the per-channel variances
+// give the sandwich A^-1 (sum_c sigma_c^2 J_c^T J_c) A^-1, here in closed form for one parameter
+// and a nuisance column; the pooled variance would be wrong by the mix of the two.
+TEST(Covariance, PerChannelVariancesGiveTheSandwich) {
+  std::mt19937 rng(kSeed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const int n = 400;  // rows, alternating channels 0 and 1
+  Eigen::MatrixXd j(n, 2);
+  Eigen::VectorXd r(n);
+  std::vector<int> channel(n);
+  for (int i = 0; i < n; ++i) {
+    channel[i] = i % 2;
+    j.row(i) << (channel[i] == 0 ? 10.0 : 0.1) * g(rng), 1.0;  // the clean channel informs
+    r[i] = (channel[i] == 0 ? 0.01 : 1.0) * g(rng);
+  }
+  CovarianceOptions options;
+  options.row_channels = channel;
+  const UncertaintyReport rep =
+      CovarianceFromJacobian(j, r, Params({"a"}, Eigen::VectorXd::Ones(1)), {0}, options);
+  // Closed form.
+  const double correction = static_cast<double>(n) / (n - 2);
+  double ss[2] = {0, 0};
+  for (int i = 0; i < n; ++i) ss[channel[i]] += r[i] * r[i];
+  Eigen::VectorXd var(n);
+  for (int i = 0; i < n; ++i) var[i] = correction * ss[channel[i]] / (n / 2);
+  const Eigen::MatrixXd a_inv = (j.transpose() * j).inverse();
+  const Eigen::MatrixXd sandwich = a_inv * j.transpose() * var.asDiagonal() * j * a_inv;
+  constexpr double kClosedForm = 1e-10;
+  EXPECT_NEAR(rep.covariance(0, 0), sandwich(0, 0), kClosedForm * sandwich(0, 0));
+  // The pooled variance mixes the noisy channel into the clean one's information: far too large.
+  const UncertaintyReport pooled =
+      CovarianceFromJacobian(j, r, Params({"a"}, Eigen::VectorXd::Ones(1)), {0});
+  EXPECT_GT(pooled.covariance(0, 0), 100.0 * rep.covariance(0, 0));
+  options.row_channels.pop_back();
+  EXPECT_THROW(CovarianceFromJacobian(j, r, Params({"a"}, Eigen::VectorXd::Ones(1)), {0}, options),
+               std::invalid_argument);
+}
+
 TEST(Covariance, CollinearColumnsRaiseAWarning) {
   std::mt19937 rng(kSeed);
   std::normal_distribution<double> g(0.0, 1.0);

@@ -43,6 +43,13 @@ struct ParameterEstimate {
 struct CovarianceOptions {
   double max_condition = 1e8;
   double max_correlation = 0.95;
+  /// CovarianceFromJacobian only: the channel (0, 1, ...) of every residual row. When given, each
+  /// channel gets its own noise variance sigma_c^2 = |r_c|^2 / N_c (with the pooled
+  /// degrees-of-freedom correction) and the covariance is the sandwich
+  ///   A^-1 J^T diag(sigma_c(row)^2) J A^-1,  A = J^T J,
+  /// which stays right when the weights are not 1 / noise (the default 1 / std of each output
+  /// over-weights a clean, small channel against a noisy one). Empty: one pooled variance.
+  std::vector<int> row_channels;
 };
 
 struct UncertaintyReport {
@@ -93,8 +100,10 @@ UncertaintyReport NlpCovariance(const Nlp& nlp, const Eigen::VectorXd& w, const 
 /// initial state with the parameter vector `p` by `integrator` (RK4 or CVODES, bound to the
 /// model and the experiments' sample time), forms the sensitivity Jacobian of the weighted
 /// outputs with respect to the free parameters and initial states (the integrator's forward
-/// sensitivities), and calls CovarianceFromJacobian. `initial_states[e]` is the estimated x0 of
-/// experiment e. A failed simulation throws std::runtime_error naming the experiment.
+/// sensitivities), and calls CovarianceFromJacobian with one noise variance per output channel
+/// (CovarianceOptions::row_channels, unless the caller sets them). `initial_states[e]` is the
+/// estimated x0 of experiment e. A failed simulation throws std::runtime_error naming the
+/// experiment.
 UncertaintyReport SimulationCovariance(const Integrator& integrator,
                                        const std::vector<ExperimentData>& experiments,
                                        const Eigen::VectorXd& p,

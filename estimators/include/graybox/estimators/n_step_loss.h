@@ -1,0 +1,92 @@
+// N-step-ahead simulation error as an identification loss (seed 000 eq. 7 minimised directly).
+//
+// From the measured state x_k at every start k = 0, stride, 2 stride, ... <= N_e - 1 - N of
+// every experiment e, the model is simulated N samples ahead with the measured inputs (held over
+// each sample, integrators.h), and the prediction is compared with the measured states:
+//     r_{e,k,j} = W (x_hat_{k+j|k}(theta) - x_{k+j})[channels],      j = 1 .. N,
+//     minimise 1/2 sum_e sum_k sum_j |r_{e,k,j}|^2   over the free parameters theta.
+// With the default weights W = diag(1 / sigma_c), sigma_c the standard deviation of measured
+// state channel c over all experiments, the cost is (S N C / 2) eta_N^2 for S starts and C scored
+// channels, so the minimiser of this loss is the minimiser of the N-step NRMS of metrics.h
+// (NStepLossProblem::Nrms converts; for one experiment it equals NStepNrms exactly).
+//
+// Compared with multiple shooting, no state is a decision variable: every window restarts from
+// the measurement, so the loss weighs the model's short-horizon predictions (the quantity an MPC
+// uses) and never lets a drift accumulate over a long record. The windows overlap (a sample is
+// scored by up to N windows).
+//
+// Each experiment is one residual block of the Nlp (nlp.h, AddResidualBlock) evaluated by the
+// chosen Integrator with forward sensitivities, spread over `num_threads` threads, so the
+// gradient is exact (to CVODES' tolerance) and nothing is unrolled. Its dense Jacobian has
+// S_e N C rows and one column per free parameter: 14850 starts x 150 steps x 12 channels x 18
+// parameters is 3.9 GB, so long records use a stride (stride 50 on that record: 77 MB).
+// Ipopt sees the Gauss-Newton Hessian J^T J; Ceres uses the Jacobian directly.
+//
+//   NStepLossOptions options;
+//   options.steps = 150;
+//   options.stride = 25;
+//   NStepLossProblem problem = BuildNStepLoss(model, experiments, measured_states, options);
+//   SolverResult result = SolveWithCeres(problem.nlp);
+//   double eta = problem.Nrms(result.cost);
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "graybox/estimators/integrator_factory.h"
+#include "graybox/estimators/multiple_shooting.h"  // ExperimentData
+#include "graybox/estimators/nlp.h"
+#include "graybox/estimators/parameter_map.h"
+#include "graybox/models/model.h"
+
+namespace graybox::estimators {
+
+struct NStepLossOptions {
+  /// N, the prediction horizon in samples (>= 1).
+  int steps = 150;
+  /// Use every stride-th start (>= 1).
+  int stride = 1;
+  /// Scored state columns (0-based, distinct); empty scores every state. Seed 000 scores the
+  /// positions and velocities of all six joints.
+  std::vector<int> channels;
+  /// One weight per scored channel; empty means 1 / std of each scored measured-state channel
+  /// over all experiments (the normalisation of eta_N).
+  Eigen::VectorXd weights;
+  /// The integrator of every window (RK4 with substeps, or CVODES for stiff models).
+  IntegratorOptions integrator;
+  /// Threads simulating the windows of one experiment (>= 1).
+  int num_threads = 1;
+  /// Throws std::invalid_argument explaining the first invalid field.
+  void Validate() const;
+};
+
+struct NStepLossProblem {
+  Nlp nlp;
+  /// The free model parameters are the variables of the NLP (scaled, parameter_map.h).
+  ParameterMap parameters;
+  /// The scored channels and their weights.
+  std::vector<int> channels;
+  Eigen::VectorXd weights;
+  /// starts[e]: the start samples of experiment e.
+  std::vector<std::vector<int>> starts;
+  /// Number of scored values, sum over experiments of starts x steps x channels.
+  long num_scored = 0;
+
+  Eigen::VectorXd Parameters(const Eigen::VectorXd& w) const { return parameters.Values(w); }
+  /// sqrt(2 cost / num_scored): the N-step NRMS of the loss's own weighting at objective `cost`.
+  double Nrms(double cost) const;
+};
+
+/// Builds the NLP. `measured_states[e]` is the N_e x nx measured state trajectory of experiment e
+/// (its inputs are experiments[e].u; experiments[e].y is not used). Throws std::invalid_argument,
+/// naming the experiment or option, expected versus got: sizes, non-finite data, a record not
+/// longer than N samples, a channel out of range, a zero standard deviation for a default weight,
+/// infeasible parameter bounds, no free parameter. A failed window simulation at a trial point is
+/// returned to the solver as a failed evaluation naming the experiment and start, never thrown.
+NStepLossProblem BuildNStepLoss(const models::StateSpaceModel& model,
+                                const std::vector<ExperimentData>& experiments,
+                                const std::vector<Eigen::MatrixXd>& measured_states,
+                                const NStepLossOptions& options = {});
+
+}  // namespace graybox::estimators

@@ -133,8 +133,14 @@ struct Case {
   int substeps, sens_substeps;
   double rk4_error, rk4_sens_state_error, rk4_sens_error;
   std::shared_ptr<est::CvodesIntegrator> cvodes;
-  std::shared_ptr<est::Rk4Integrator> rk4, rk4_sens;
+  std::shared_ptr<est::FixedStepIntegrator> rk4, rk4_sens;
 };
+
+est::FixedStepOptions Rk4(int substeps) {
+  est::FixedStepOptions o;
+  o.substeps = substeps;
+  return o;
+}
 
 // The smallest n >= 1 with ok(n), by doubling and then bisection (assumes ok is monotone).
 template <typename Ok>
@@ -201,16 +207,16 @@ int main(int argc, char** argv) {
       c.cvodes_error = ScaledError(c.cvodes->Simulate(kX0, s.u, p).x, ref.x);
       c.cvodes_sens_error = ScaledError(Stack(cs), ref_sens);
       c.substeps = SmallestSubsteps([&](int n) { return rk4_error(n) <= c.cvodes_error; });
-      c.rk4 = std::make_shared<est::Rk4Integrator>(model, s.dt, c.substeps);
+      c.rk4 = std::make_shared<est::FixedStepIntegrator>(model, s.dt, Rk4(c.substeps));
       c.rk4_error = rk4_error(c.substeps);
       c.sens_substeps = SmallestSubsteps([&](int n) {
         if (n < c.substeps) return false;
         const est::SensitivityTrajectory t =
-            est::Rk4Integrator(model, s.dt, n).SimulateWithSensitivities(kX0, s.u, p);
+            est::FixedStepIntegrator(model, s.dt, Rk4(n)).SimulateWithSensitivities(kX0, s.u, p);
         return ScaledError(t.x, ref.x) <= c.cvodes_error &&
                ScaledError(Stack(t), ref_sens) <= c.cvodes_sens_error;
       });
-      c.rk4_sens = std::make_shared<est::Rk4Integrator>(model, s.dt, c.sens_substeps);
+      c.rk4_sens = std::make_shared<est::FixedStepIntegrator>(model, s.dt, Rk4(c.sens_substeps));
       const est::SensitivityTrajectory rs = c.rk4_sens->SimulateWithSensitivities(kX0, s.u, p);
       c.rk4_sens_state_error = ScaledError(rs.x, ref.x);
       c.rk4_sens_error = ScaledError(Stack(rs), ref_sens);

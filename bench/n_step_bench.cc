@@ -13,7 +13,7 @@
 
 namespace {
 
-using graybox::estimators::NStepNrmsRk4;
+using graybox::estimators::NStepNrmsSimulated;
 using graybox::estimators::NStepSimulationOptions;
 namespace models = graybox::models;
 
@@ -42,7 +42,7 @@ void BM_Nrms150_RoblueTest(benchmark::State& state) {
   options.num_threads = static_cast<int>(state.range(0));
   double nrms = 0.0;
   for (auto _ : state) {
-    nrms = NStepNrmsRk4(model, y, u, model.ParameterValues(), 0.004, options).nrms;
+    nrms = NStepNrmsSimulated(model, y, u, model.ParameterValues(), 0.004, options).nrms;
     benchmark::DoNotOptimize(nrms);
   }
   state.counters["nrms"] = nrms;

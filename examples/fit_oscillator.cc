@@ -115,7 +115,7 @@ int main() {
   // Multiple shooting from the block's nominal values, solved by Ipopt.
   est::MultipleShootingOptions options;
   options.segment_length = 25;
-  options.substeps = kFitSubsteps;
+  options.step.substeps = kFitSubsteps;
   const est::ShootingProblem problem = est::BuildMultipleShooting(model, {ex}, options);
   std::cout << "multiple shooting: " << problem.nlp.NumVariables() << " variables, "
             << problem.nlp.NumConstraints() << " continuity constraints\n";
@@ -128,7 +128,7 @@ int main() {
 
   const Eigen::VectorXd p = problem.Parameters(result.w);
   const est::UncertaintyReport uncertainty = est::SimulationCovariance(
-      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, kFitSubsteps);
+      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, options.step);
   std::cout << uncertainty.BriefReport() << "\n";
   for (const std::string& w : uncertainty.warnings) std::cout << "  note: " << w << "\n";
   std::cout << "\n";

@@ -111,7 +111,7 @@ int main() {
   // Multiple shooting with continuity as residuals, solved by Ceres.
   est::MultipleShootingOptions options;
   options.segment_length = 20;
-  options.substeps = 2;
+  options.step.substeps = 2;
   options.continuity_as_constraints = false;
   options.continuity_weight = 1e3;
   const est::ShootingProblem problem = est::BuildMultipleShooting(model, {ex}, options);
@@ -125,9 +125,8 @@ int main() {
   }
 
   const Eigen::VectorXd p = problem.Parameters(result.w);
-  const est::UncertaintyReport uncertainty =
-      est::SimulationCovariance(model, {ex}, p, {problem.InitialState(result.w, 0)},
-                                problem.output_weights, options.substeps);
+  const est::UncertaintyReport uncertainty = est::SimulationCovariance(
+      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, options.step);
   std::cout << uncertainty.BriefReport() << "\n";
   for (const std::string& w : uncertainty.warnings) std::cout << "  note: " << w << "\n";
 

@@ -152,7 +152,7 @@ int main() {
 
   est::MultipleShootingOptions options;
   options.segment_length = 10;
-  options.substeps = kSubsteps;
+  options.step.substeps = kSubsteps;
   const est::ShootingProblem problem = est::BuildMultipleShooting(model, {ex}, options);
   std::cout << "multiple shooting: " << problem.nlp.NumVariables() << " variables, "
             << problem.nlp.NumConstraints() << " continuity constraints\n";
@@ -165,7 +165,7 @@ int main() {
 
   const Eigen::VectorXd p = problem.Parameters(result.w);
   const est::UncertaintyReport uncertainty = est::SimulationCovariance(
-      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, kSubsteps);
+      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, options.step);
   std::cout << uncertainty.BriefReport() << "\n";
   for (const std::string& w : uncertainty.warnings) std::cout << "  note: " << w << "\n";
 

@@ -300,7 +300,7 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
     f.summary.emplace_back("fix_initial_state", options.fix_initial_state ? "true" : "false");
   } else {
     estimators::MultipleShootingOptions options = spec.multiple_shooting;
-    options.substeps = substeps;
+    options.step.substeps = substeps;
     options.output_weights = weights;
     f.shooting = std::make_shared<estimators::ShootingProblem>(
         estimators::BuildMultipleShooting(m, *ex, options));

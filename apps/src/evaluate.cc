@@ -54,8 +54,8 @@ void EvaluateNStep(const estimators::Problem& problem, const estimators::SplitDa
   estimators::NStepSimulationOptions options;
   options.scoring.steps = steps;
   options.scoring.stride = problem.metrics.n_step_stride;
-  options.substeps = problem.estimation.substeps;
-  e->n_step = estimators::NStepNrmsRk4(problem.built, x, ex.u, p, ex.dt, options);
+  options.step.substeps = problem.estimation.substeps;
+  e->n_step = estimators::NStepNrmsSimulated(problem.built, x, ex.u, p, ex.dt, options);
   e->has_n_step = true;
 }
 

@@ -320,12 +320,13 @@ UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
                                        const std::vector<ExperimentData>& experiments,
                                        const Eigen::VectorXd& p,
                                        const std::vector<Eigen::VectorXd>& initial_states,
-                                       const Eigen::VectorXd& output_weights, int substeps,
+                                       const Eigen::VectorXd& output_weights,
+                                       const FixedStepOptions& step,
                                        const CovarianceOptions& options) {
   if (experiments.empty()) {
     throw std::invalid_argument("SimulationCovariance: expected at least one experiment, got 0");
   }
-  return SimulationCovariance(Rk4Integrator(model, experiments[0].dt, substeps), experiments, p,
+  return SimulationCovariance(FixedStepIntegrator(model, experiments[0].dt, step), experiments, p,
                               initial_states, output_weights, options);
 }
 

@@ -9,8 +9,8 @@ namespace graybox::estimators {
 
 const char* IntegrationMethodName(IntegrationMethod method) {
   switch (method) {
-    case IntegrationMethod::kRk4:
-      return "rk4";
+    case IntegrationMethod::kFixedStep:
+      return "fixed_step";
     case IntegrationMethod::kCvodes:
       return "cvodes";
   }
@@ -18,27 +18,24 @@ const char* IntegrationMethodName(IntegrationMethod method) {
 }
 
 IntegrationMethod ParseIntegrationMethod(const std::string& name) {
-  for (IntegrationMethod m : {IntegrationMethod::kRk4, IntegrationMethod::kCvodes}) {
+  for (IntegrationMethod m : {IntegrationMethod::kFixedStep, IntegrationMethod::kCvodes}) {
     if (name == IntegrationMethodName(m)) return m;
   }
-  const std::string hint = models::DidYouMean(name, {"rk4", "cvodes"});
-  throw std::invalid_argument("integration method: expected 'rk4' or 'cvodes', got '" + name + "'" +
-                              (hint.empty() ? "" : "; did you mean '" + hint + "'?"));
+  const std::string hint = models::DidYouMean(name, {"fixed_step", "cvodes"});
+  throw std::invalid_argument("integration method: expected 'fixed_step' or 'cvodes', got '" +
+                              name + "'" + (hint.empty() ? "" : "; did you mean '" + hint + "'?"));
 }
 
 void IntegratorOptions::Validate() const {
   switch (method) {
-    case IntegrationMethod::kRk4:
-      if (rk4_substeps < 1) {
-        throw std::invalid_argument("IntegratorOptions.rk4_substeps: expected >= 1, got " +
-                                    std::to_string(rk4_substeps));
-      }
+    case IntegrationMethod::kFixedStep:
+      fixed_step.Validate();
       return;
     case IntegrationMethod::kCvodes:
       cvodes.Validate();
       return;
   }
-  throw std::invalid_argument("IntegratorOptions.method: expected kRk4 or kCvodes, got " +
+  throw std::invalid_argument("IntegratorOptions.method: expected kFixedStep or kCvodes, got " +
                               std::to_string(static_cast<int>(method)));
 }
 
@@ -48,7 +45,7 @@ std::unique_ptr<Integrator> MakeIntegrator(const models::StateSpaceModel& model,
   if (options.method == IntegrationMethod::kCvodes) {
     return std::make_unique<CvodesIntegrator>(model, dt, options.cvodes);
   }
-  return std::make_unique<Rk4Integrator>(model, dt, options.rk4_substeps);
+  return std::make_unique<FixedStepIntegrator>(model, dt, options.fixed_step);
 }
 
 }  // namespace graybox::estimators

@@ -1,5 +1,6 @@
 #include "graybox/estimators/integrators.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <limits>
@@ -8,6 +9,8 @@
 #include <string>
 
 #include "graybox/expr/derivatives.h"
+#include "graybox/expr/matrix.h"
+#include "graybox/models/block.h"  // DidYouMean
 #include "integrator_internal.h"
 
 namespace graybox::estimators {
@@ -15,17 +18,64 @@ namespace graybox::estimators {
 using expr::Expr;
 
 namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-}  // namespace
 
-std::vector<Expr> Rk4Step(const expr::Function& dynamics, const std::vector<Expr>& x,
-                          const std::vector<Expr>& u, const std::vector<Expr>& p, double dt,
-                          int substeps) {
-  if (!(dt > 0.0) || substeps < 1) {
-    throw std::invalid_argument("Rk4Step: expected dt > 0 and substeps >= 1, got dt = " +
-                                std::to_string(dt) + ", substeps = " + std::to_string(substeps));
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+constexpr StepScheme kAllSchemes[] = {StepScheme::kRk4, StepScheme::kBackwardEuler,
+                                      StepScheme::kTrapezoidal, StepScheme::kRadauIIA};
+
+bool IsImplicit(StepScheme scheme) { return scheme != StepScheme::kRk4; }
+
+// Butcher tableau of an implicit scheme: A row-major (s x s) and b (s). The nodes c (the row sums
+// of A) are not needed: the input is held over the step, so f does not depend on time.
+struct Tableau {
+  int stages = 0;
+  std::vector<double> a, b;
+  double A(int i, int j) const { return a[static_cast<std::size_t>(i * stages + j)]; }
+};
+
+Tableau ImplicitTableau(StepScheme scheme) {
+  switch (scheme) {
+    case StepScheme::kBackwardEuler:
+      return {1, {1.0}, {1.0}};
+    case StepScheme::kTrapezoidal:
+      return {2, {0.0, 0.0, 0.5, 0.5}, {0.5, 0.5}};
+    case StepScheme::kRadauIIA:
+      return {2, {5.0 / 12.0, -1.0 / 12.0, 3.0 / 4.0, 1.0 / 4.0}, {3.0 / 4.0, 1.0 / 4.0}};
+    case StepScheme::kRk4:
+      break;
   }
-  const double h = dt / substeps;
+  throw std::logic_error("ImplicitTableau: not an implicit scheme");
+}
+
+// Stages with a nonzero row of A (the others are explicit: K_i = f(x)).
+std::vector<int> ImplicitStages(const Tableau& t) {
+  std::vector<int> implicit;
+  for (int i = 0; i < t.stages; ++i) {
+    for (int j = 0; j < t.stages; ++j) {
+      if (t.A(i, j) != 0.0) {
+        implicit.push_back(i);
+        break;
+      }
+    }
+  }
+  return implicit;
+}
+
+// f evaluations inside one step of the map (the summary's counter; see integrators.h).
+long RhsEvaluationsPerStep(const FixedStepOptions& o) {
+  if (!IsImplicit(o.scheme)) return 4;
+  const Tableau t = ImplicitTableau(o.scheme);
+  const long m = static_cast<long>(ImplicitStages(t).size());
+  const bool explicit_stage = m < t.stages;
+  // From K_I = 0 the first iteration's stage values are x (f(x) reused) unless an explicit stage
+  // shifts them.
+  return 1 + m * o.newton_iterations - (explicit_stage ? 0 : m);
+}
+
+std::vector<Expr> Rk4Steps(const expr::Function& dynamics, const std::vector<Expr>& x,
+                           const std::vector<Expr>& u, const std::vector<Expr>& p, double h,
+                           int steps) {
   const std::size_t n = x.size();
   auto f = [&](const std::vector<Expr>& xs) { return dynamics.Call({xs, u, p})[0]; };
   auto axpy = [&](const std::vector<Expr>& a, double s, const std::vector<Expr>& b) {
@@ -34,7 +84,7 @@ std::vector<Expr> Rk4Step(const expr::Function& dynamics, const std::vector<Expr
     return r;
   };
   std::vector<Expr> xs = x;
-  for (int s = 0; s < substeps; ++s) {
+  for (int s = 0; s < steps; ++s) {
     const auto k1 = f(xs);
     const auto k2 = f(axpy(xs, h / 2, k1));
     const auto k3 = f(axpy(xs, h / 2, k2));
@@ -46,12 +96,150 @@ std::vector<Expr> Rk4Step(const expr::Function& dynamics, const std::vector<Expr
   return xs;
 }
 
-expr::Function MakeRk4StepFunction(const models::StateSpaceModel& model, double dt, int substeps) {
+// `steps` implicit Runge-Kutta steps of size h by simplified Newton (integrators.h).
+std::vector<Expr> ImplicitSteps(const expr::Function& dynamics, const std::vector<Expr>& x,
+                                const std::vector<Expr>& u, const std::vector<Expr>& p, double h,
+                                int steps, StepScheme scheme, int newton_iterations) {
+  const Tableau t = ImplicitTableau(scheme);
+  const std::vector<int> implicit = ImplicitStages(t);
+  const int nx = static_cast<int>(x.size());
+  const int m = static_cast<int>(implicit.size());
+  // J = f_x as a symbolic Function of (x, u, p): its sparse nonzeros, scattered below.
+  const expr::Function jacobian = dynamics.Jacobian(dynamics.OutputName(0), dynamics.InputName(0));
+  const expr::Sparsity& pattern = jacobian.OutputSparsity(0);
+  auto f = [&](const std::vector<Expr>& xs) { return dynamics.Call({xs, u, p})[0]; };
+
+  std::vector<Expr> xs = x;
+  for (int step = 0; step < steps; ++step) {
+    const std::vector<Expr> f0 = f(xs);
+    const std::vector<Expr> jnz = jacobian.Call({xs, u, p})[0];
+    expr::ExprMatrix j = expr::ExprMatrix::Constant(nx, nx, Expr(0.0));
+    for (int c = 0; c < pattern.cols(); ++c) {
+      for (int k = pattern.colind()[c]; k < pattern.colind()[c + 1]; ++k) {
+        j(pattern.row()[k], c) = jnz[static_cast<std::size_t>(k)];
+      }
+    }
+    // M = I - h (A_II (x) J), stage-major.
+    expr::ExprMatrix iteration(m * nx, m * nx);
+    for (int bi = 0; bi < m; ++bi) {
+      for (int bj = 0; bj < m; ++bj) {
+        const double ha = h * t.A(implicit[bi], implicit[bj]);
+        for (int r = 0; r < nx; ++r) {
+          for (int c = 0; c < nx; ++c) {
+            iteration(bi * nx + r, bj * nx + c) =
+                Expr(bi == bj && r == c ? 1.0 : 0.0) - ha * j(r, c);
+          }
+        }
+      }
+    }
+    // Stage derivatives: explicit stages f(x), implicit ones start at 0.
+    std::vector<std::vector<Expr>> k(static_cast<std::size_t>(t.stages),
+                                     std::vector<Expr>(static_cast<std::size_t>(nx), Expr(0.0)));
+    for (int i = 0; i < t.stages; ++i) {
+      if (std::find(implicit.begin(), implicit.end(), i) == implicit.end()) {
+        k[static_cast<std::size_t>(i)] = f0;
+      }
+    }
+    for (int it = 0; it < newton_iterations; ++it) {
+      expr::ExprMatrix residual(m * nx, 1);
+      for (int bi = 0; bi < m; ++bi) {
+        const int i = implicit[bi];
+        std::vector<Expr> y = xs;
+        for (int jj = 0; jj < t.stages; ++jj) {
+          const double ha = h * t.A(i, jj);
+          if (ha == 0.0) continue;
+          for (int r = 0; r < nx; ++r) y[r] = y[r] + ha * k[jj][r];
+        }
+        const std::vector<Expr> fy = f(y);
+        for (int r = 0; r < nx; ++r) residual(bi * nx + r, 0) = k[i][r] - fy[r];
+      }
+      // Hash-consing makes the LU of `iteration` one set of nodes shared by every iteration.
+      const expr::ExprMatrix delta = expr::SolveLu(iteration, residual);
+      for (int bi = 0; bi < m; ++bi) {
+        const int i = implicit[bi];
+        for (int r = 0; r < nx; ++r) k[i][r] = k[i][r] - delta(bi * nx + r, 0);
+      }
+    }
+    std::vector<Expr> next = xs;
+    for (int i = 0; i < t.stages; ++i) {
+      if (t.b[i] == 0.0) continue;
+      for (int r = 0; r < nx; ++r) next[r] = next[r] + (h * t.b[i]) * k[i][r];
+    }
+    xs = std::move(next);
+  }
+  return xs;
+}
+
+}  // namespace
+
+const char* StepSchemeName(StepScheme scheme) {
+  switch (scheme) {
+    case StepScheme::kRk4:
+      return "rk4";
+    case StepScheme::kBackwardEuler:
+      return "backward_euler";
+    case StepScheme::kTrapezoidal:
+      return "trapezoidal";
+    case StepScheme::kRadauIIA:
+      return "radau_iia";
+  }
+  return "unknown";
+}
+
+StepScheme ParseStepScheme(const std::string& name) {
+  std::vector<std::string> names;
+  for (StepScheme s : kAllSchemes) {
+    if (name == StepSchemeName(s)) return s;
+    names.push_back(StepSchemeName(s));
+  }
+  const std::string hint = models::DidYouMean(name, names);
+  throw std::invalid_argument(
+      "step scheme: expected 'rk4', 'backward_euler', 'trapezoidal' or 'radau_iia', got '" + name +
+      "'" + (hint.empty() ? "" : "; did you mean '" + hint + "'?"));
+}
+
+void FixedStepOptions::Validate() const {
+  bool known = false;
+  for (StepScheme s : kAllSchemes) known = known || s == scheme;
+  if (!known) {
+    throw std::invalid_argument(
+        "FixedStepOptions.scheme: expected kRk4, kBackwardEuler, kTrapezoidal or kRadauIIA, got " +
+        std::to_string(static_cast<int>(scheme)));
+  }
+  if (substeps < 1) {
+    throw std::invalid_argument("FixedStepOptions.substeps: expected >= 1, got " +
+                                std::to_string(substeps));
+  }
+  if (IsImplicit(scheme) && newton_iterations < 1) {
+    throw std::invalid_argument(std::string("FixedStepOptions.newton_iterations: expected >= 1 "
+                                            "for the implicit scheme '") +
+                                StepSchemeName(scheme) + "', got " +
+                                std::to_string(newton_iterations));
+  }
+}
+
+std::vector<Expr> FixedStep(const expr::Function& dynamics, const std::vector<Expr>& x,
+                            const std::vector<Expr>& u, const std::vector<Expr>& p, double dt,
+                            const FixedStepOptions& options) {
+  if (!(dt > 0.0)) {
+    throw std::invalid_argument("FixedStep: expected a sample time dt > 0, got " +
+                                std::to_string(dt));
+  }
+  options.Validate();
+  const double h = dt / options.substeps;
+  if (!IsImplicit(options.scheme)) return Rk4Steps(dynamics, x, u, p, h, options.substeps);
+  return ImplicitSteps(dynamics, x, u, p, h, options.substeps, options.scheme,
+                       options.newton_iterations);
+}
+
+expr::Function MakeStepFunction(const models::StateSpaceModel& model, double dt,
+                                const FixedStepOptions& options) {
   const auto& x = model.dynamics.InputSymbols(0);
   const auto& u = model.dynamics.InputSymbols(1);
   const auto& p = model.dynamics.InputSymbols(2);
-  return expr::Function(model.name + "_rk4", {{"x", x}, {"u", u}, {"p", p}},
-                        {{"x_next", Rk4Step(model.dynamics, x, u, p, dt, substeps)}});
+  return expr::Function(model.name + "_" + StepSchemeName(options.scheme),
+                        {{"x", x}, {"u", u}, {"p", p}},
+                        {{"x_next", FixedStep(model.dynamics, x, u, p, dt, options)}});
 }
 
 // ---- status and reports ---------------------------------------------------------------------
@@ -311,30 +499,38 @@ SensitivityTrajectory Integrator::Run(const Eigen::VectorXd& x0, const Eigen::Ma
   return t;
 }
 
-// ---- Rk4Integrator --------------------------------------------------------------------------
+// ---- FixedStepIntegrator --------------------------------------------------------------------
 
-struct Rk4Integrator::StepDerivatives {
+struct FixedStepIntegrator::StepDerivatives {
   expr::Function jacobians;  // "jac_x" = dPhi/dx, "jac_p" = dPhi/dp
 };
 
-Rk4Integrator::Rk4Integrator(const models::StateSpaceModel& model, double dt, int substeps)
-    : Integrator(model, dt), substeps_(substeps) {
-  if (substeps < 1) {
-    throw std::invalid_argument("Rk4Integrator: expected substeps >= 1, got " +
-                                std::to_string(substeps));
+FixedStepIntegrator::FixedStepIntegrator(const models::StateSpaceModel& model, double dt,
+                                         const FixedStepOptions& options)
+    : Integrator(model, dt), options_(options) {
+  options_.Validate();
+  rhs_per_step_ = RhsEvaluationsPerStep(options_);
+  // One step of dt / substeps, applied substeps times per sample: the same map as
+  // MakeStepFunction(model, dt, options), with a tape that does not grow with substeps.
+  FixedStepOptions one = options_;
+  one.substeps = 1;
+  step_ = MakeStepFunction(model, dt / options_.substeps, one);
+}
+
+FixedStepIntegrator::~FixedStepIntegrator() = default;
+
+std::string FixedStepIntegrator::Name() const {
+  const int n = options_.substeps;
+  std::string name = std::string(StepSchemeName(options_.scheme)) + " (" + std::to_string(n) +
+                     (n == 1 ? " substep" : " substeps");
+  if (IsImplicit(options_.scheme)) {
+    const int it = options_.newton_iterations;
+    name += ", " + std::to_string(it) + (it == 1 ? " newton iteration" : " newton iterations");
   }
-  // One RK4 step of dt / substeps, applied substeps times per sample: the same map as
-  // MakeRk4StepFunction(model, dt, substeps), with a tape that does not grow with substeps.
-  step_ = MakeRk4StepFunction(model, dt / substeps, 1);
+  return name + ")";
 }
 
-Rk4Integrator::~Rk4Integrator() = default;
-
-std::string Rk4Integrator::Name() const {
-  return "rk4 (" + std::to_string(substeps_) + (substeps_ == 1 ? " substep)" : " substeps)");
-}
-
-const Rk4Integrator::StepDerivatives& Rk4Integrator::Derivatives() const {
+const FixedStepIntegrator::StepDerivatives& FixedStepIntegrator::Derivatives() const {
   std::call_once(derivatives_once_, [this] {
     derivatives_ = std::make_unique<const StepDerivatives>(
         StepDerivatives{internal::JacobiansXP(step_, "x_next")});
@@ -342,9 +538,10 @@ const Rk4Integrator::StepDerivatives& Rk4Integrator::Derivatives() const {
   return *derivatives_;
 }
 
-void Rk4Integrator::IntegrateStates(const StateRequest& r) const {
+void FixedStepIntegrator::IntegrateStates(const StateRequest& r) const {
   const int nx = model().NumStates(), nu = model().NumInputs();
   const Eigen::Index n = r.u->rows();
+  const bool implicit = IsImplicit(options_.scheme);
   IntegrationSummary& s = *r.summary;
   expr::Workspace ws = step_.MakeWorkspace();
   Eigen::VectorXd x = *r.x0, x_next(nx), uk(nu);
@@ -363,9 +560,10 @@ void Rk4Integrator::IntegrateStates(const StateRequest& r) const {
     sens_next.resize(nx, ns);
     (*r.s)[0] = sens;
   }
+  const char* scheme = StepSchemeName(options_.scheme);
   for (Eigen::Index k = 0; k + 1 < n; ++k) {
     uk = r.u->row(k).transpose();
-    for (int sub = 0; sub < substeps_; ++sub) {
+    for (int sub = 0; sub < options_.substeps; ++sub) {
       const double* in[3] = {x.data(), uk.data(), r.p->data()};
       if (d) {
         double* jout[2] = {nz_x.data(), nz_p.data()};
@@ -374,8 +572,8 @@ void Rk4Integrator::IntegrateStates(const StateRequest& r) const {
         if (!sj.ok) {
           s.status = IntegrationStatus::kNonFiniteValue;
           s.failed_at = static_cast<int>(k);
-          s.message = "Jacobian of the RK4 step at sample " + std::to_string(k) +
-                      " is not finite: " + sj.message;
+          s.message = std::string("Jacobian of the ") + scheme + " step at sample " +
+                      std::to_string(k) + " is not finite: " + sj.message;
           return;
         }
         sens_next.setZero();
@@ -387,11 +585,13 @@ void Rk4Integrator::IntegrateStates(const StateRequest& r) const {
       double* out[1] = {x_next.data()};
       const expr::EvalStatus st = step_.Evaluate(in, out, &ws);
       ++s.num_steps;
-      s.num_rhs_evaluations += 4;
+      s.num_rhs_evaluations += rhs_per_step_;
+      if (implicit) ++s.num_linear_solver_setups;
       if (!st.ok) {
         s.status = IntegrationStatus::kNonFiniteValue;
         s.failed_at = static_cast<int>(k);
-        s.message = "RK4 step from sample " + std::to_string(k) + " is not finite: " + st.message;
+        s.message = std::string(scheme) + " step from sample " + std::to_string(k) +
+                    " is not finite: " + st.message;
         return;
       }
       x.swap(x_next);
@@ -401,10 +601,18 @@ void Rk4Integrator::IntegrateStates(const StateRequest& r) const {
   }
 }
 
+Trajectory SimulateFixedStep(const models::StateSpaceModel& model, const Eigen::VectorXd& x0,
+                             const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
+                             const FixedStepOptions& options) {
+  return FixedStepIntegrator(model, dt, options).Simulate(x0, u, p);
+}
+
 Trajectory SimulateRk4(const models::StateSpaceModel& model, const Eigen::VectorXd& x0,
                        const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
                        int substeps) {
-  return Rk4Integrator(model, dt, substeps).Simulate(x0, u, p);
+  FixedStepOptions options;
+  options.substeps = substeps;
+  return SimulateFixedStep(model, x0, u, p, dt, options);
 }
 
 }  // namespace graybox::estimators

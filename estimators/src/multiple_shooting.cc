@@ -18,10 +18,7 @@ void MultipleShootingOptions::Validate() const {
     throw std::invalid_argument("MultipleShootingOptions.segment_length: expected >= 1, got " +
                                 std::to_string(segment_length));
   }
-  if (substeps < 1) {
-    throw std::invalid_argument("MultipleShootingOptions.substeps: expected >= 1, got " +
-                                std::to_string(substeps));
-  }
+  step.Validate();
   if (!(continuity_weight > 0.0)) {
     throw std::invalid_argument("MultipleShootingOptions.continuity_weight: expected > 0, got " +
                                 std::to_string(continuity_weight));
@@ -106,7 +103,7 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
   std::vector<double> w0, lbw, ubw;
   std::vector<std::string> names;
   map.AppendVariables(&w0, &lbw, &ubw, &names);
-  const Function step = MakeRk4StepFunction(model, experiments[0].dt, options.substeps);
+  const Function step = MakeStepFunction(model, experiments[0].dt, options.step);
   const int length = options.segment_length;
   std::vector<Eigen::MatrixXi> node_variables;
   struct Pending {
@@ -121,7 +118,7 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
     const int num_segments = (n + length - 1) / length;
     Eigen::MatrixXd guess = ex.state_guess;
     if (guess.size() == 0)
-      guess = SimulateRk4(model, ex.x0, ex.u, values, ex.dt, options.substeps).x;
+      guess = SimulateFixedStep(model, ex.x0, ex.u, values, ex.dt, options.step).x;
     if (!guess.allFinite()) {
       throw std::invalid_argument("experiment '" + ex.name +
                                   "': the initial simulation diverges; give a state_guess");

@@ -10,24 +10,24 @@
 namespace graybox::estimators {
 
 void NStepSimulationOptions::Validate() const {
-  if (scoring.steps < 1 || scoring.stride < 1 || substeps < 1 || num_threads < 0 || chunk < 1) {
+  if (scoring.steps < 1 || scoring.stride < 1 || num_threads < 0 || chunk < 1) {
     throw std::invalid_argument(
-        "NStepSimulationOptions: expected steps >= 1, stride >= 1, substeps >= 1, num_threads >= "
-        "0 and chunk >= 1, got " +
+        "NStepSimulationOptions: expected steps >= 1, stride >= 1, num_threads >= 0 and chunk >= "
+        "1, got " +
         std::to_string(scoring.steps) + ", " + std::to_string(scoring.stride) + ", " +
-        std::to_string(substeps) + ", " + std::to_string(num_threads) + ", " +
-        std::to_string(chunk));
+        std::to_string(num_threads) + ", " + std::to_string(chunk));
   }
+  step.Validate();
 }
 
-NStepResult NStepNrmsRk4(const models::StateSpaceModel& model, const Eigen::MatrixXd& x,
-                         const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
-                         const NStepSimulationOptions& options) {
+NStepResult NStepNrmsSimulated(const models::StateSpaceModel& model, const Eigen::MatrixXd& x,
+                               const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
+                               const NStepSimulationOptions& options) {
   options.Validate();
   const int nx = model.NumStates(), nu = model.NumInputs();
   if (x.cols() != nx || u.cols() != nu || u.rows() != x.rows() ||
       p.size() != model.NumParameters()) {
-    throw std::invalid_argument("NStepNrmsRk4: expected x of N x " + std::to_string(nx) +
+    throw std::invalid_argument("NStepNrmsSimulated: expected x of N x " + std::to_string(nx) +
                                 ", u of N x " + std::to_string(nu) + " and " +
                                 std::to_string(model.NumParameters()) + " parameters, got " +
                                 std::to_string(x.rows()) + "x" + std::to_string(x.cols()) + ", " +
@@ -39,7 +39,7 @@ NStepResult NStepNrmsRk4(const models::StateSpaceModel& model, const Eigen::Matr
   const int last = options.scoring.last_start < 0 ? n - 1 - steps : options.scoring.last_start;
   if (options.scoring.first_start < 0 || last > n - 1 - steps ||
       last < options.scoring.first_start) {
-    throw std::invalid_argument("NStepNrmsRk4: expected starts in [0, " +
+    throw std::invalid_argument("NStepNrmsSimulated: expected starts in [0, " +
                                 std::to_string(n - 1 - steps) + "] with " + std::to_string(steps) +
                                 " steps, got [" + std::to_string(options.scoring.first_start) +
                                 ", " + std::to_string(last) + "]");
@@ -48,7 +48,7 @@ NStepResult NStepNrmsRk4(const models::StateSpaceModel& model, const Eigen::Matr
   for (int s = options.scoring.first_start; s <= last; s += options.scoring.stride) {
     starts.push_back(s);
   }
-  const expr::Function step = MakeRk4StepFunction(model, dt, options.substeps);
+  const expr::Function step = MakeStepFunction(model, dt, options.step);
   const int num_chunks = static_cast<int>((starts.size() + options.chunk - 1) / options.chunk);
   std::vector<NStepResult> chunk_results(num_chunks);
   std::vector<std::string> errors(num_chunks);

@@ -721,7 +721,7 @@ void ParseIpopt(const Section& s, IpoptOptions* options) {
 void ParseIntegrator(const Section& s, IntegratorOptions* options) {
   s.Allow({"method", "relative_tolerance", "absolute_tolerance", "max_steps", "max_order",
            "linear_solver"});
-  if (auto v = s.Choice("method", {"rk4", "cvodes"})) {
+  if (auto v = s.Choice("method", {"fixed_step", "cvodes"})) {
     options->method = ParseIntegrationMethod(*v);
   }
   CvodesOptions& c = options->cvodes;
@@ -926,7 +926,7 @@ void ParseEstimation(const Section& root, Problem* problem) {
                     .value_or(spec.method == "equation_error" ? "ceres" : "ipopt");
   spec.seed = static_cast<unsigned>(e.Integer("seed", 0, 4294967295L).value_or(1));
   spec.substeps = static_cast<int>(e.Integer("substeps", 1, 1000).value_or(1));
-  spec.integrator.rk4_substeps = spec.substeps;
+  spec.integrator.fixed_step.substeps = spec.substeps;
   if (auto in = e.Sub("integrator")) ParseIntegrator(*in, &spec.integrator);
   if (spec.method == "collocation" && spec.solver != "ipopt") {
     e.Fail("solver", "collocation has equality constraints: expected solver = 'ipopt', got '" +
@@ -934,7 +934,7 @@ void ParseEstimation(const Section& root, Problem* problem) {
   }
   std::vector<std::string> outputs;
   for (const auto& s : problem->built.outputs) outputs.push_back(s.name);
-  spec.multiple_shooting.substeps = spec.substeps;
+  spec.multiple_shooting.step.substeps = spec.substeps;
   spec.multiple_shooting.continuity_as_constraints = spec.solver == "ipopt";
   if (auto ms = e.Sub("multiple_shooting")) {
     ms->Allow({"segment_length", "continuity", "continuity_weight", "weights", "fix_initial_state",

@@ -78,7 +78,7 @@ TEST(Collocation, AgreesWithMultipleShooting) {
   ASSERT_TRUE(rc.success) << rc.FullReport();
   MultipleShootingOptions ms_options;
   ms_options.segment_length = 10;
-  ms_options.substeps = 4;
+  ms_options.step.substeps = 4;
   const ShootingProblem ms = BuildMultipleShooting(start, {ex}, ms_options);
   const SolverResult rm = SolveWithIpopt(ms.nlp);
   ASSERT_TRUE(rm.success) << rm.FullReport();

@@ -152,7 +152,7 @@ TEST(Covariance, SimulationErrorIntervalsCoverTheTruth) {
   ASSERT_TRUE(r.success) << r.FullReport();
   const Eigen::VectorXd p = problem.Parameters(r.w);
   const UncertaintyReport rep = SimulationCovariance(start, {ex}, p, {problem.InitialState(r.w, 0)},
-                                                     problem.output_weights, 1);
+                                                     problem.output_weights, options.step);
   // The weighted residual standard deviation is the noise over the output std.
   const double y_std = std::sqrt((ex.y.array() - ex.y.mean()).square().mean());
   EXPECT_NEAR(std::sqrt(rep.residual_variance), kNoise / y_std, 0.1 * kNoise / y_std);

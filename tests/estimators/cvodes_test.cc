@@ -441,6 +441,12 @@ TEST(Cvodes, ArmSensitivitiesMatchCentralDifferencesAcrossRestarts) {
 
 // ---- RK4 and CVODES on a non-stiff model ---------------------------------------------------
 
+FixedStepOptions Rk4(int substeps) {
+  FixedStepOptions o;
+  o.substeps = substeps;
+  return o;
+}
+
 // RK4 with h = dt / 8 = 1.25e-3 on a model with |lambda| ~ 2: global error ~ (h |lambda|)^4 ~
 // 1e-11 (measured < 4e-10 against CVODES), below CVODES's with restarts at rtol 1e-12; the two
 // agree to the restart factor times rtol.
@@ -454,7 +460,7 @@ TEST(Integrators, Rk4AndCvodesAgreeOnANonStiffModel) {
   const Eigen::MatrixXd u = DuffingInput(n, dt);
   const Eigen::Vector2d x0(0.3, -0.2);
   const Eigen::VectorXd p = model.ParameterValues();
-  const Rk4Integrator rk4(model, dt, kAgreementSubsteps);
+  const FixedStepIntegrator rk4(model, dt, Rk4(kAgreementSubsteps));
   CvodesOptions o;
   o.relative_tolerance = kAgreementRtol;
   o.absolute_tolerance = kAgreementRtol;
@@ -489,7 +495,7 @@ TEST(Integrators, Rk4SensitivitiesMatchDifferencesOfTheMap) {
   const Eigen::MatrixXd u = DuffingInput(n, dt);
   const Eigen::Vector2d x0(0.3, -0.2);
   const Eigen::VectorXd p = model.ParameterValues();
-  const Rk4Integrator rk4(model, dt, 2);
+  const FixedStepIntegrator rk4(model, dt, Rk4(2));
   const SensitivityTrajectory s = rk4.SimulateWithSensitivities(x0, u, p, {2, 0});
   ASSERT_TRUE(s.ok);
   EXPECT_EQ(s.summary.num_steps, 2 * (n - 1));
@@ -543,7 +549,7 @@ TEST(Integrators, NanFromAnInputEndsInAStatusWithTheSample) {
   const models::StateSpaceModel model = m.Build();
   Eigen::MatrixXd u = Eigen::MatrixXd::Ones(20, 1);
   u(7, 0) = -1.0;  // f is NaN over [t_7, t_8)
-  for (IntegrationMethod method : {IntegrationMethod::kCvodes, IntegrationMethod::kRk4}) {
+  for (IntegrationMethod method : {IntegrationMethod::kCvodes, IntegrationMethod::kFixedStep}) {
     IntegratorOptions o;
     o.method = method;
     const auto integrator = MakeIntegrator(model, 0.1, o);
@@ -635,8 +641,10 @@ TEST(Cvodes, PneumaticArmSimulatesWhereRk4AtTheSampleTimeIsWrong) {
 TEST(Integrators, FactoryPicksTheMethod) {
   const models::StateSpaceModel model = DuffingModel();
   IntegratorOptions o;
-  o.rk4_substeps = 3;
+  o.fixed_step.substeps = 3;
   EXPECT_EQ(MakeIntegrator(model, 0.01, o)->Name(), "rk4 (3 substeps)");
+  o.fixed_step = {StepScheme::kRadauIIA, 1, 2};
+  EXPECT_EQ(MakeIntegrator(model, 0.01, o)->Name(), "radau_iia (1 substep, 2 newton iterations)");
   o.method = IntegrationMethod::kCvodes;
   EXPECT_EQ(MakeIntegrator(model, 0.01, o)->Name(), "cvodes bdf (dense)");
   o.cvodes.linear_solver = CvodesOptions::LinearSolver::kKlu;
@@ -644,8 +652,9 @@ TEST(Integrators, FactoryPicksTheMethod) {
   EXPECT_EQ(klu->Name(), "cvodes bdf (klu)");
   EXPECT_EQ(klu->dt(), 0.01);
   EXPECT_EQ(ParseIntegrationMethod("cvodes"), IntegrationMethod::kCvodes);
-  EXPECT_EQ(ParseIntegrationMethod(IntegrationMethodName(IntegrationMethod::kRk4)),
-            IntegrationMethod::kRk4);
+  EXPECT_EQ(ParseIntegrationMethod(IntegrationMethodName(IntegrationMethod::kFixedStep)),
+            IntegrationMethod::kFixedStep);
+  EXPECT_EQ(IntegrationMethodName(IntegrationMethod::kFixedStep), std::string("fixed_step"));
   try {
     ParseIntegrationMethod("cvode");
     ADD_FAILURE() << "expected std::invalid_argument";
@@ -682,10 +691,11 @@ TEST(Integrators, InvalidOptionsAndArgumentsAreExplained) {
   o.absolute_tolerances = Eigen::Vector3d(1, 1, 1);
   ExpectInvalid([&] { CvodesIntegrator(model, 0.01, o); }, "expected 2 entries");
   ExpectInvalid([&] { CvodesIntegrator(model, 0.0); }, "dt > 0");
-  ExpectInvalid([&] { Rk4Integrator(model, 0.01, 0); }, "substeps >= 1");
+  ExpectInvalid([&] { FixedStepIntegrator(model, 0.01, Rk4(0)); },
+                "FixedStepOptions.substeps: expected >= 1, got 0");
   IntegratorOptions io;
-  io.rk4_substeps = 0;
-  ExpectInvalid([&] { MakeIntegrator(model, 0.01, io); }, "rk4_substeps");
+  io.fixed_step.substeps = 0;
+  ExpectInvalid([&] { MakeIntegrator(model, 0.01, io); }, "FixedStepOptions.substeps");
 
   const CvodesIntegrator integrator(model, 0.01);
   const Eigen::MatrixXd u = DuffingInput(5, 0.01);

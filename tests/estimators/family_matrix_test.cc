@@ -193,7 +193,7 @@ struct FamilySpec {
   int segment_length = 2;  // samples per shooting segment
   double continuity_weight = kContinuityWeight;
   /// Single shooting: RK4 with `substeps`, or CVODES with `cvodes`.
-  IntegrationMethod single_shooting = IntegrationMethod::kRk4;
+  IntegrationMethod single_shooting = IntegrationMethod::kFixedStep;
   CvodesOptions cvodes;
   /// The noise-free record: RK4 with kTruthSubsteps, or CVODES with `truth_cvodes`.
   bool truth_by_cvodes = false;
@@ -623,7 +623,7 @@ StateSpaceModel StartModel(const FamilyData& d) {
 MultipleShootingOptions ShootingOptions(const FamilySpec& s, bool continuity_as_constraints) {
   MultipleShootingOptions o;
   o.segment_length = s.segment_length;
-  o.substeps = s.substeps;
+  o.step.substeps = s.substeps;
   o.continuity_as_constraints = continuity_as_constraints;
   o.continuity_weight = s.continuity_weight;
   return o;
@@ -633,7 +633,7 @@ MultipleShootingOptions ShootingOptions(const FamilySpec& s, bool continuity_as_
 SingleShootingOptions SingleShootingOptionsOf(const FamilySpec& s) {
   SingleShootingOptions o;
   o.integrator.method = s.single_shooting;
-  o.integrator.rk4_substeps = s.substeps;
+  o.integrator.fixed_step.substeps = s.substeps;
   o.integrator.cvodes = s.cvodes;
   return o;
 }
@@ -714,9 +714,8 @@ TEST_P(FamilyMatrix, RecoversTheTruth) {
       ASSERT_TRUE(r.success) << r.FullReport();
       p = problem.Parameters(r.w);
       // The simulation-error covariance at the estimate brackets the truth.
-      const UncertaintyReport u =
-          SimulationCovariance(start, {d.experiment}, p, {problem.InitialState(r.w, 0)},
-                               problem.output_weights, s.substeps);
+      const UncertaintyReport u = SimulationCovariance(
+          start, {d.experiment}, p, {problem.InitialState(r.w, 0)}, problem.output_weights, o.step);
       std::cout << "             covariance: " << u.BriefReport() << "\n";
       for (const std::string& w : u.warnings) std::cout << "             warning: " << w << "\n";
       EXPECT_NEAR(std::sqrt(u.residual_variance), 1.0, kResidualSigmaTolerance);

@@ -87,7 +87,7 @@ TEST(MultipleShooting, IpoptRecoversFrictionParameters) {
   const ExperimentData ex = SimulatedExperiment(DriveModel(), 1000, 1e-3, &rng);
   MultipleShootingOptions options;
   options.segment_length = 25;
-  options.substeps = 2;
+  options.step.substeps = 2;
   const ShootingProblem problem = BuildMultipleShooting(PerturbedModel(), {ex}, options);
   EXPECT_EQ(problem.nlp.NumConstraints(), (1000 / 25 - 1) * 2);
   const SolverResult r = SolveWithIpopt(problem.nlp);
@@ -105,7 +105,7 @@ TEST(MultipleShooting, CeresWithContinuityResidualsAgreesWithIpopt) {
   const ExperimentData ex = SimulatedExperiment(DriveModel(), 1000, 1e-3, &rng);
   MultipleShootingOptions options;
   options.segment_length = 25;
-  options.substeps = 2;
+  options.step.substeps = 2;
   const ShootingProblem with_constraints = BuildMultipleShooting(PerturbedModel(), {ex}, options);
   options.continuity_as_constraints = false;
   options.continuity_weight = 1e3;

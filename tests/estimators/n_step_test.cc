@@ -44,8 +44,8 @@ TEST(NStep, BatchedThreadedEqualsSequentialDefinition) {
   options.scoring.steps = 20;
   options.chunk = 37;  // several chunks, uneven last chunk, both threads busy
   options.num_threads = 2;
-  const NStepResult batched = NStepNrmsRk4(model, x, u, p, 0.004, options);
-  const expr::Function step = MakeRk4StepFunction(model, 0.004, 1);
+  const NStepResult batched = NStepNrmsSimulated(model, x, u, p, 0.004, options);
+  const expr::Function step = MakeStepFunction(model, 0.004);
   const NStepResult sequential = NStepNrms(
       x,
       [&](int start, const Eigen::VectorXd& state, int steps) {
@@ -78,7 +78,7 @@ TEST(NStep, RoblueKukaDataIsReproducedToItsPrecision) {
   options.scoring.steps = 150;
   options.scoring.stride = 10;                    // every 10th start keeps the test fast
   options.scoring.channels = {0, 1, 2, 3, 4, 5};  // positions, as seed 000 eq. 7
-  const NStepResult r = NStepNrmsRk4(model, y, u, model.ParameterValues(), 0.004, options);
+  const NStepResult r = NStepNrmsSimulated(model, y, u, model.ParameterValues(), 0.004, options);
   // The file holds float32 values of a simulation of this very model (models/kuka_kr300.h).
   constexpr double kFloat32Floor = 1e-5;
   EXPECT_LT(r.nrms, kFloat32Floor) << r.BriefReport();

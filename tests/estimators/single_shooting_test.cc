@@ -87,7 +87,7 @@ constexpr double kRecoveryTolerance = 0.02;
 TEST(SingleShooting, ResidualBlockDerivativesMatchFiniteDifferences) {
   SingleShootingOptions options;
   options.fix_initial_state = false;
-  options.integrator.rk4_substeps = 2;
+  options.integrator.fixed_step.substeps = 2;
   const ShootingProblem problem =
       BuildSingleShooting(PerturbedModel(), {Simulated(kSeed)}, options);
   const Nlp& nlp = problem.nlp;
@@ -135,7 +135,7 @@ TEST(SingleShooting, ResidualBlockDerivativesMatchFiniteDifferences) {
 TEST(SingleShooting, CeresAndIpoptRecoverTheParametersAndAgree) {
   const std::vector<ExperimentData> data = {Simulated(kSeed)};
   SingleShootingOptions options;
-  options.integrator.rk4_substeps = 4;
+  options.integrator.fixed_step.substeps = 4;
   const ShootingProblem problem = BuildSingleShooting(PerturbedModel(), data, options);
   const SolverResult ceres = SolveWithCeres(problem.nlp);
   const SolverResult ipopt = SolveWithIpopt(problem.nlp);
@@ -159,11 +159,11 @@ TEST(SingleShooting, EqualsTheUnrolledSingleShooting) {
   shortened.y.conservativeResize(kShort, Eigen::NoChange);
   const std::vector<ExperimentData> data = {shortened};
   SingleShootingOptions options;
-  options.integrator.rk4_substeps = 2;
+  options.integrator.fixed_step.substeps = 2;
   const ShootingProblem by_integrator = BuildSingleShooting(PerturbedModel(), data, options);
   MultipleShootingOptions unrolled;
   unrolled.segment_length = kShort;
-  unrolled.substeps = 2;
+  unrolled.step.substeps = 2;
   unrolled.fix_initial_state = true;
   const ShootingProblem symbolic = BuildMultipleShooting(PerturbedModel(), data, unrolled);
   // Same variables, same objective at the start (the same RK4 map evaluated two ways).

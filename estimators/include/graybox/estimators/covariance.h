@@ -7,7 +7,8 @@
 // approximation). For simulation-error (output-error) estimates the Jacobian is that of the
 // simulated outputs with respect to the free parameters AND the free initial states; the
 // parameter block of the inverse information matrix is reported (the initial states are nuisance
-// parameters). It is computed by forward sensitivities of the RK4 map,
+// parameters). It is computed by forward sensitivities of the integrator (for a fixed-step map
+// Phi, integrators.h),
 //     S_{k+1} = dPhi/dx S_k + [dPhi/dtheta, 0],   S_0 = [0, I],
 //     dy_k/d(theta, x0) = dh/dx S_k + [dh/dtheta, 0],
 // which is exact for the discretised model and linear in the number of samples.
@@ -97,7 +98,7 @@ UncertaintyReport NlpCovariance(const Nlp& nlp, const Eigen::VectorXd& w, const 
                                 double constraint_weight, const CovarianceOptions& options = {});
 
 /// Output-error covariance of a fitted StateSpaceModel: simulates every experiment from its
-/// initial state with the parameter vector `p` by `integrator` (RK4 or CVODES, bound to the
+/// initial state with the parameter vector `p` by `integrator` (fixed-step or CVODES, bound to the
 /// model and the experiments' sample time), forms the sensitivity Jacobian of the weighted
 /// outputs with respect to the free parameters and initial states (the integrator's forward
 /// sensitivities), and calls CovarianceFromJacobian with one noise variance per output channel
@@ -111,12 +112,14 @@ UncertaintyReport SimulationCovariance(const Integrator& integrator,
                                        const Eigen::VectorXd& output_weights,
                                        const CovarianceOptions& options = {});
 
-/// The same with Rk4Integrator(model, experiments[0].dt, substeps).
+/// The same with FixedStepIntegrator(model, experiments[0].dt, step), e.g. the step options of
+/// the multiple-shooting fit.
 UncertaintyReport SimulationCovariance(const models::StateSpaceModel& model,
                                        const std::vector<ExperimentData>& experiments,
                                        const Eigen::VectorXd& p,
                                        const std::vector<Eigen::VectorXd>& initial_states,
-                                       const Eigen::VectorXd& output_weights, int substeps,
+                                       const Eigen::VectorXd& output_weights,
+                                       const FixedStepOptions& step,
                                        const CovarianceOptions& options = {});
 
 }  // namespace graybox::estimators

@@ -1,9 +1,11 @@
-// Choosing an integrator from options: fixed-step RK4 or CVODES BDF behind the Integrator
-// interface of integrators.h.
+// Choosing an integrator from options: a fixed-step scheme (explicit RK4 or an implicit
+// Runge-Kutta scheme, integrators.h) or CVODES BDF, behind the Integrator interface of
+// integrators.h.
 //
 //   IntegratorOptions options;
-//   options.method = IntegrationMethod::kCvodes;   // stiff model
+//   options.method = IntegrationMethod::kCvodes;   // stiff model, error-controlled
 //   options.cvodes.relative_tolerance = 1e-8;
+//   // or: options.fixed_step.scheme = StepScheme::kRadauIIA;  (stiff model, fixed step)
 //   std::unique_ptr<Integrator> integrator = MakeIntegrator(model, dt, options);
 //   Trajectory t = integrator->Simulate(x0, u, p);
 #pragma once
@@ -17,20 +19,20 @@
 namespace graybox::estimators {
 
 enum class IntegrationMethod {
-  kRk4,     // fixed-step classical RK4, rk4_substeps steps per sample (non-stiff models)
-  kCvodes,  // CVODES variable-order BDF with Newton iteration (stiff models)
+  kFixedStep,  // FixedStepIntegrator: fixed_step.scheme, fixed_step.substeps steps per sample
+  kCvodes,     // CVODES variable-order BDF with Newton iteration and error control (stiff models)
 };
 
-/// "rk4" or "cvodes".
+/// "fixed_step" or "cvodes".
 const char* IntegrationMethodName(IntegrationMethod method);
 /// Inverse of IntegrationMethodName; std::invalid_argument with a did-you-mean hint otherwise.
 IntegrationMethod ParseIntegrationMethod(const std::string& name);
 
 struct IntegratorOptions {
-  IntegrationMethod method = IntegrationMethod::kRk4;
-  /// RK4 steps per sample interval (>= 1); unused by CVODES.
-  int rk4_substeps = 1;
-  /// CVODES settings; unused by RK4.
+  IntegrationMethod method = IntegrationMethod::kFixedStep;
+  /// Scheme, steps per sample interval and Newton iterations; unused by CVODES.
+  FixedStepOptions fixed_step;
+  /// CVODES settings; unused by the fixed-step schemes.
   CvodesOptions cvodes;
   /// Throws std::invalid_argument explaining the first invalid field (the chosen method's only).
   void Validate() const;

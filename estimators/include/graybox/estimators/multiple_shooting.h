@@ -3,7 +3,7 @@
 // For each experiment, the samples are cut into segments of `segment_length` samples. The state
 // at the start of every segment, s_j, is a decision variable, as are the free model parameters
 // theta (scaled: the optimizer sees theta_i / scale_i). Inside segment j, starting at sample k_j,
-//     x_{k_j} = s_j,   x_{k+1} = Phi(x_k, u_k, theta)           (integrators.h: RK4, input held)
+//     x_{k_j} = s_j,   x_{k+1} = Phi(x_k, u_k, theta)      (integrators.h: fixed step, input held)
 //     r_k     = w o (h(x_k, u_k, theta) - y_k)                   (weighted output error)
 // and the continuity condition  Phi(x_{k_j + L - 1}, ...) - s_{j+1} = 0  joins the segments,
 // either as equality constraints (Ipopt) or as residuals weighted by `continuity_weight` (Ceres).
@@ -12,7 +12,10 @@
 //
 // Each segment is one NLP element (nlp.h): the simulation over L samples is unrolled
 // symbolically once, so the element's exact Jacobian and Hessian come from libexpr and the NLP is
-// assembled in time linear in the number of samples.
+// assembled in time linear in the number of samples. Phi is MakeStepFunction(model, dt, step):
+// explicit RK4 by default, or an implicit scheme (backward_euler, trapezoidal, radau_iia) for
+// stiff models, whose Newton-iterated step is an explicit graph like RK4's, so the element's
+// derivatives stay exact (they are larger: they differentiate the dynamics' Jacobian too).
 #pragma once
 
 #include <string>
@@ -20,6 +23,7 @@
 
 #include <Eigen/Core>
 
+#include "graybox/estimators/integrators.h"
 #include "graybox/estimators/nlp.h"
 #include "graybox/estimators/parameter_map.h"
 #include "graybox/models/model.h"
@@ -41,7 +45,9 @@ struct ExperimentData {
 
 struct MultipleShootingOptions {
   int segment_length = 20;  // samples per segment (>= 1)
-  int substeps = 1;         // RK4 substeps per sample
+  /// The one-step map Phi (scheme, substeps per sample, Newton iterations), also used to simulate
+  /// the initial node guess.
+  FixedStepOptions step;
   /// True: continuity as equality constraints (Ipopt). False: as weighted residuals (Ceres).
   bool continuity_as_constraints = true;
   /// Weight of the continuity residuals when they are residuals (relative to output residuals).
@@ -50,6 +56,7 @@ struct MultipleShootingOptions {
   Eigen::VectorXd output_weights;
   /// Keep the initial state of every experiment at x0 (not a decision variable).
   bool fix_initial_state = false;
+  /// Throws std::invalid_argument naming the first invalid field.
   void Validate() const;
 };
 

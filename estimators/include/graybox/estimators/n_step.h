@@ -2,7 +2,11 @@
 // eq. 7): from the measured state at every start k, simulate N samples with the measured inputs
 // and compare with the measured states, eta_N as defined in metrics.h (NStepNrms).
 //
-// The starts are independent, so they are simulated together: each RK4 step is one batched tape
+// The simulation is the fixed-step map of integrators.h (MakeStepFunction with options.step: RK4
+// by default, an implicit scheme for stiff models). The name says "simulated" to set it apart from
+// NStepNrms of metrics.h, which scores predictions the caller computed.
+//
+// The starts are independent, so they are simulated together: each step is one batched tape
 // evaluation over a chunk of starts (SIMD lanes, see Function::EvaluateBatch), chunks are spread
 // over threads, each with its own workspace. Predictions are never stored for all starts at once
 // (14850 starts x 150 steps x 12 states would be 214 MB); each chunk is scored and the sums are
@@ -11,23 +15,25 @@
 
 #include <Eigen/Core>
 
+#include "graybox/estimators/integrators.h"
 #include "graybox/estimators/metrics.h"
 #include "graybox/models/model.h"
 
 namespace graybox::estimators {
 
 struct NStepSimulationOptions {
-  NStepOptions scoring;  // horizon, starts, scored channels
-  int substeps = 1;      // RK4 substeps per sample
-  int num_threads = 2;   // 0 means std::thread::hardware_concurrency()
-  int chunk = 1024;      // starts simulated together
+  NStepOptions scoring;   // horizon, starts, scored channels
+  FixedStepOptions step;  // the one-step map: scheme, substeps per sample, Newton iterations
+  int num_threads = 2;    // 0 means std::thread::hardware_concurrency()
+  int chunk = 1024;       // starts simulated together
+  /// Throws std::invalid_argument naming the invalid fields.
   void Validate() const;
 };
 
 /// x: N x nx measured states (row k at sample k), u: N x nu inputs (u_k held over the sample),
 /// p: model parameters. Throws std::invalid_argument on size mismatches or bad options.
-NStepResult NStepNrmsRk4(const models::StateSpaceModel& model, const Eigen::MatrixXd& x,
-                         const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
-                         const NStepSimulationOptions& options = {});
+NStepResult NStepNrmsSimulated(const models::StateSpaceModel& model, const Eigen::MatrixXd& x,
+                               const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
+                               const NStepSimulationOptions& options = {});
 
 }  // namespace graybox::estimators

@@ -181,9 +181,9 @@ struct EstimationSpec {
   /// RK4 substeps per sample in every simulation (shooting, reports, `graybox simulate`).
   int substeps = 1;
   /// The integrator of single shooting, of the reported simulations, of `graybox simulate` and of
-  /// the output-error covariance ([estimation.integrator]: method "rk4" with `substeps`, or
-  /// "cvodes" with its tolerances). Multiple shooting and collocation keep their own
-  /// discretisation (the RK4 map, collocation polynomials) inside the NLP.
+  /// the output-error covariance ([estimation.integrator]: method "fixed_step", RK4 with
+  /// `substeps`, or "cvodes" with its tolerances). Multiple shooting and collocation keep their
+  /// own discretisation (the RK4 map, collocation polynomials) inside the NLP.
   IntegratorOptions integrator;
   MultipleShootingOptions multiple_shooting;
   /// Output weights by output name (default 1 / std of the channel).

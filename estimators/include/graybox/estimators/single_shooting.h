@@ -1,7 +1,7 @@
 // Single shooting by an Integrator: simulation-error identification without unrolling.
 //
 // For each experiment e the whole record is simulated from its initial state x0_e,
-//     x_0 = x0_e,   x_{k+1} = Phi(x_k, u_k, theta)        (RK4 with substeps, or CVODES BDF)
+//     x_0 = x0_e,   x_{k+1} = Phi(x_k, u_k, theta)     (a fixed-step scheme, or CVODES BDF)
 //     r_k = w o (h(x_k, u_k, theta) - y_k),                k = 0 .. N_e - 1,
 // and the objective is 1/2 sum_e sum_k |r_k|^2. The decision variables are the free model
 // parameters (scaled as in parameter_map.h) and, unless fixed, each experiment's x0.
@@ -32,7 +32,8 @@
 namespace graybox::estimators {
 
 struct SingleShootingOptions {
-  /// RK4 (rk4_substeps per sample) or CVODES (tolerances in integrator.cvodes).
+  /// A fixed-step scheme (integrator.fixed_step: RK4 by default, implicit schemes for stiff
+  /// models) or CVODES (tolerances in integrator.cvodes).
   IntegratorOptions integrator;
   /// Weights w per output channel; empty means 1 / std(y_channel) over all experiments.
   Eigen::VectorXd output_weights;

@@ -1,0 +1,353 @@
+// Problem files: [estimation] (the formulation, solver and integrator options) and [metrics]
+// (problem_file.h, docs/problem-format.md).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "graybox/estimators/problem_file.h"
+#include "graybox/models/block.h"
+#include "problem_file_internal.h"
+
+namespace graybox::estimators::internal {
+
+// ---- [estimation] -------------------------------------------------------------------------------
+
+std::string NumberText(const toml::node& n) {
+  if (const auto* i = n.as_integer()) return std::to_string(i->get());
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", n.as_floating_point()->get());
+  return buf;
+}
+
+// Checks pass-through Ipopt options against Ipopt's registered options (SolveWithIpopt rejects
+// unknown keys and invalid values before iterating) on a one-variable NLP with no iteration.
+void CheckIpoptOptions(const Section& s, const IpoptOptions& options) {
+  Nlp nlp(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, -1.0),
+          Eigen::VectorXd::Constant(1, 1.0));
+  IpoptOptions probe = options;
+  probe.max_iterations = 0;
+  probe.print_level = 0;
+  probe.pass_through.erase("output_file");  // would create a file
+  probe.pass_through.erase("print_level");
+  try {
+    SolveWithIpopt(nlp, probe);
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    for (const auto& [key, value] : options.pass_through) {
+      if (what.find("'" + key + "'") == std::string::npos) continue;
+      // Ipopt's own names did not come close: try the IpoptOptions fields of this table.
+      const std::string hint =
+          what.find("did you mean") == std::string::npos
+              ? Suggestion(key, {"max_iterations", "tolerance", "exact_hessian", "print_level"})
+              : "";
+      s.Fail(key, what + hint);
+    }
+    s.Fail("", what);
+  }
+}
+
+void ParseIpopt(const Section& s, IpoptOptions* options) {
+  for (auto&& [k, v] : s.table()) {
+    const std::string key(k.str());
+    if (key == "max_iterations" || key == "max_iter") {
+      options->max_iterations = static_cast<int>(*s.Integer(key, 0, 1000000000));
+    } else if (key == "tolerance" || key == "tol") {
+      options->tolerance = *s.PositiveNumber(key);
+    } else if (key == "exact_hessian") {
+      options->exact_hessian = *s.Bool(key);
+    } else if (key == "print_level") {
+      options->print_level = static_cast<int>(*s.Integer(key, 0, 12));
+    } else if (v.is_string()) {
+      options->pass_through[key] = v.as_string()->get();
+    } else if (v.is_number()) {
+      s.NumberOf(v, key);
+      options->pass_through[key] = NumberText(v);
+    } else if (v.is_boolean()) {
+      options->pass_through[key] = v.as_boolean()->get() ? "yes" : "no";
+    } else {
+      s.Fail(key, "Ipopt option '" + key + "': expected a number or a word, got " + ValueText(v));
+    }
+  }
+  try {
+    options->Validate();
+  } catch (const std::invalid_argument& e) {
+    s.Fail("", e.what());
+  }
+  CheckIpoptOptions(s, *options);
+}
+
+void ParseIntegrator(const Section& s, IntegratorOptions* options) {
+  s.Allow({"method", "relative_tolerance", "absolute_tolerance", "max_steps", "max_order",
+           "linear_solver"});
+  if (auto v = s.Choice("method", {"fixed_step", "cvodes"})) {
+    options->method = ParseIntegrationMethod(*v);
+  }
+  CvodesOptions& c = options->cvodes;
+  if (auto v = s.PositiveNumber("relative_tolerance")) c.relative_tolerance = *v;
+  if (auto v = s.PositiveNumber("absolute_tolerance")) c.absolute_tolerance = *v;
+  if (auto v = s.Integer("max_steps", 1, 1000000000)) c.max_steps = *v;
+  if (auto v = s.Integer("max_order", 1, 5)) c.max_order = static_cast<int>(*v);
+  if (auto v = s.Choice("linear_solver", {"dense", "klu"})) {
+    c.linear_solver =
+        *v == "dense" ? CvodesOptions::LinearSolver::kDense : CvodesOptions::LinearSolver::kKlu;
+  }
+  try {
+    options->Validate();
+  } catch (const std::invalid_argument& e) {
+    s.Fail("", e.what());
+  }
+}
+
+void ParseCeres(const Section& s, CeresOptions* options) {
+  s.Allow({"max_iterations", "function_tolerance", "gradient_tolerance", "parameter_tolerance",
+           "loss", "loss_scale", "num_threads", "print_progress"});
+  if (auto v = s.Integer("max_iterations", 0, 1000000000)) options->max_iterations = *v;
+  if (auto v = s.PositiveNumber("function_tolerance")) options->function_tolerance = *v;
+  if (auto v = s.PositiveNumber("gradient_tolerance")) options->gradient_tolerance = *v;
+  if (auto v = s.PositiveNumber("parameter_tolerance")) options->parameter_tolerance = *v;
+  if (auto v = s.Choice("loss", {"trivial", "huber", "cauchy", "soft_l1", "arctan"})) {
+    options->loss = *v;
+  }
+  if (auto v = s.PositiveNumber("loss_scale")) options->loss_scale = *v;
+  if (auto v = s.Integer("num_threads", 1, 256)) options->num_threads = *v;
+  if (auto v = s.Bool("print_progress")) options->print_progress = *v;
+  try {
+    options->Validate();
+  } catch (const std::invalid_argument& e) {
+    s.Fail("", e.what());
+  }
+}
+
+std::map<std::string, double> ParseWeights(const Section& parent, const std::string& key,
+                                           const std::vector<std::string>& channels,
+                                           const char* kind) {
+  std::map<std::string, double> weights;
+  auto t = parent.Sub(key);
+  if (!t) return weights;
+  for (auto&& [k, v] : t->table()) {
+    const std::string name(k.str());
+    if (std::find(channels.begin(), channels.end(), name) == channels.end()) {
+      t->Fail(name, "'" + name + "' is not " + kind + Suggestion(name, channels) + " (" +
+                        Quoted(channels) + ")");
+    }
+    const double w = t->NumberOf(v, name);
+    if (!(w > 0.0)) t->Fail(name, "weight of '" + name + "': expected > 0, got " + Format(w));
+    weights[name] = w;
+  }
+  return weights;
+}
+
+// The index of the state whose derivative is exactly state `i` (dq/dt = qd makes q the
+// "integral" of qd), or -1.
+int IntegralOf(const models::StateSpaceModel& m, int i) {
+  const auto& x = m.dynamics.InputSymbols(m.dynamics.InputIndex("x"));
+  const auto& f = m.dynamics.OutputExprs(0);
+  for (int j = 0; j < m.NumStates(); ++j) {
+    if (f[j].IsSame(x[i])) return j;
+  }
+  return -1;
+}
+
+// `states_only`: parsed for node_guess = 'data' of another method (only the state sources matter).
+void ParseEquationError(const Section& e, const Problem& problem, EquationErrorSpec* spec,
+                        bool states_only) {
+  e.Allow({"form", "residual_states", "inverse_inputs", "differentiate", "lowpass_hz",
+           "lowpass_order", "lowpass_padding", "skip_samples", "decimate", "decimation",
+           "weights"});
+  const models::StateSpaceModel& m = problem.built;
+  std::vector<std::string> states, inputs, outputs;
+  for (const auto& s : m.states) states.push_back(s.name);
+  for (const auto& s : m.inputs) inputs.push_back(s.name);
+  for (const auto& s : m.outputs) outputs.push_back(s.name);
+  spec->form = e.Choice("form", {"inverse", "state_derivative"}).value_or("inverse");
+  auto check_names = [&](const std::string& key, const std::vector<std::string>& names,
+                         const std::vector<std::string>& known, const char* kind) {
+    for (const auto& n : names) {
+      if (std::find(known.begin(), known.end(), n) == known.end()) {
+        e.Fail(key, "'" + key + "': '" + n + "' is not a model " + kind + Suggestion(n, known) +
+                        " (" + Quoted(known) + ")");
+      }
+    }
+  };
+  // Kinematic states: their derivative is another state.
+  const auto& f = m.dynamics.OutputExprs(0);
+  const auto& x = m.dynamics.InputSymbols(m.dynamics.InputIndex("x"));
+  auto kinematic = [&](int i) {
+    for (int j = 0; j < m.NumStates(); ++j) {
+      if (f[i].IsSame(x[j])) return true;
+    }
+    return false;
+  };
+  spec->residual_states = e.Strings("residual_states");
+  check_names("residual_states", spec->residual_states, states, "state");
+  if (spec->residual_states.empty()) {
+    for (int i = 0; i < m.NumStates(); ++i) {
+      if (!kinematic(i)) spec->residual_states.push_back(states[i]);
+    }
+  }
+  if (spec->residual_states.empty() && !states_only) {
+    e.Fail("residual_states",
+           "no state equation to fit: every state's derivative is another state");
+  }
+  if (spec->form == "inverse" && !states_only) {
+    spec->inverse_inputs = e.Strings("inverse_inputs");
+    check_names("inverse_inputs", spec->inverse_inputs, inputs, "input");
+    if (spec->inverse_inputs.empty() && inputs.size() == 1 && spec->residual_states.size() == 1) {
+      spec->inverse_inputs = inputs;
+    }
+    if (spec->inverse_inputs.size() != spec->residual_states.size()) {
+      e.Fail("inverse_inputs",
+             "the inverse form solves for one input per residual state: expected " +
+                 std::to_string(spec->residual_states.size()) + " inverse_inputs, got " +
+                 std::to_string(spec->inverse_inputs.size()));
+    }
+  } else if (e.Has("inverse_inputs") && !states_only) {
+    e.Fail("inverse_inputs", "'inverse_inputs' applies to form = 'inverse' only");
+  }
+  if (auto d = e.Sub("differentiate")) {
+    for (auto&& [k, v] : d->table()) {
+      const std::string state(k.str());
+      if (std::find(states.begin(), states.end(), state) == states.end()) {
+        d->Fail(state, "'" + state + "' is not a model state" + Suggestion(state, states));
+      }
+      if (!v.is_string()) {
+        d->Fail(state, "'" + state +
+                           "': expected the name of the signal it is the derivative of, "
+                           "got " +
+                           ValueText(v));
+      }
+      const std::string source = v.as_string()->get();
+      std::vector<std::string> known = states;
+      known.insert(known.end(), outputs.begin(), outputs.end());
+      if (std::find(known.begin(), known.end(), source) == known.end() || source == state) {
+        d->Fail(state, "'" + state + "' = '" + source +
+                           "': expected another state or a measured output" +
+                           Suggestion(source, known));
+      }
+      spec->differentiate[state] = source;
+    }
+  }
+  // Every state must come from data: measured (an output of the same name), differentiated, or
+  // inferred from a kinematic equation.
+  for (int i = 0; i < m.NumStates(); ++i) {
+    const std::string& s = states[i];
+    if (std::find(outputs.begin(), outputs.end(), s) != outputs.end()) continue;
+    if (spec->differentiate.count(s)) continue;
+    const int j = IntegralOf(m, i);
+    if (j >= 0) {
+      spec->differentiate[s] = states[j];
+      continue;
+    }
+    e.Fail("differentiate",
+           "state '" + s +
+               "' is neither a measured output nor the derivative of a measured "
+               "signal: equation error and node_guess = 'data' need every state from data (add it "
+               "to 'differentiate' or measure it as an output)");
+  }
+  // No cycles in the derivative chains.
+  for (const auto& [state, source] : spec->differentiate) {
+    std::string cur = source;
+    for (std::size_t hop = 0; hop <= states.size() && spec->differentiate.count(cur); ++hop) {
+      cur = spec->differentiate.at(cur);
+      if (cur == state)
+        e.Fail("differentiate", "the derivative chain of '" + state + "' is a cycle");
+    }
+  }
+  if (auto v = e.Number("lowpass_hz")) {
+    if (*v < 0.0)
+      e.Fail("lowpass_hz", "expected a cut-off >= 0 Hz (0: no filter), got " + Format(*v));
+    spec->lowpass_hz = *v;
+  }
+  if (auto v = e.Integer("lowpass_order", 1, 20)) spec->lowpass_order = static_cast<int>(*v);
+  if (auto v = e.Integer("lowpass_padding", -1, 100000))
+    spec->lowpass_padding = static_cast<int>(*v);
+  if (auto v = e.Integer("skip_samples", 0, 1000000000)) spec->skip_samples = static_cast<int>(*v);
+  if (auto v = e.Integer("decimate", 1, 1000)) spec->decimate = static_cast<int>(*v);
+  spec->decimation = e.Choice("decimation", {"auto", "parallel", "signals"}).value_or("auto");
+  const std::vector<std::string>& channels =
+      spec->form == "inverse" ? spec->inverse_inputs : spec->residual_states;
+  spec->weights = ParseWeights(e, "weights", channels, "a residual channel");
+}
+
+void ParseEstimation(const Section& root, Problem* problem) {
+  auto est = root.Sub("estimation");
+  if (!est) root.Fail("", "missing table [estimation]: expected at least method = '...'");
+  const Section& e = *est;
+  e.Allow({"method", "solver", "seed", "substeps", "integrator", "multiple_shooting", "collocation",
+           "equation_error", "ipopt", "ceres"});
+  EstimationSpec& spec = problem->estimation;
+  spec.where = e.Where();
+  if (!e.Has("method")) e.Fail("", "missing key 'method'");
+  spec.method = *e.Choice(
+      "method", {"multiple_shooting", "single_shooting", "collocation", "equation_error"});
+  spec.solver = e.Choice("solver", {"ipopt", "ceres"})
+                    .value_or(spec.method == "equation_error" ? "ceres" : "ipopt");
+  spec.seed = static_cast<unsigned>(e.Integer("seed", 0, 4294967295L).value_or(1));
+  spec.substeps = static_cast<int>(e.Integer("substeps", 1, 1000).value_or(1));
+  spec.integrator.fixed_step.substeps = spec.substeps;
+  if (auto in = e.Sub("integrator")) ParseIntegrator(*in, &spec.integrator);
+  if (spec.method == "collocation" && spec.solver != "ipopt") {
+    e.Fail("solver", "collocation has equality constraints: expected solver = 'ipopt', got '" +
+                         spec.solver + "'");
+  }
+  std::vector<std::string> outputs;
+  for (const auto& s : problem->built.outputs) outputs.push_back(s.name);
+  spec.multiple_shooting.step.substeps = spec.substeps;
+  spec.multiple_shooting.continuity_as_constraints = spec.solver == "ipopt";
+  if (auto ms = e.Sub("multiple_shooting")) {
+    ms->Allow({"segment_length", "continuity", "continuity_weight", "weights", "fix_initial_state",
+               "node_guess"});
+    if (auto v = ms->Integer("segment_length", 1, 1000000)) {
+      spec.multiple_shooting.segment_length = static_cast<int>(*v);
+    }
+    if (auto c = ms->Choice("continuity", {"constraints", "residuals"})) {
+      if (*c == "constraints" && spec.solver == "ceres") {
+        ms->Fail("continuity",
+                 "Ceres handles no constraints: expected continuity = 'residuals' "
+                 "with solver = 'ceres', got 'constraints'");
+      }
+      spec.multiple_shooting.continuity_as_constraints = *c == "constraints";
+    }
+    if (auto v = ms->PositiveNumber("continuity_weight")) {
+      spec.multiple_shooting.continuity_weight = *v;
+    }
+    spec.output_weights = ParseWeights(*ms, "weights", outputs, "a model output");
+    spec.multiple_shooting.fix_initial_state = ms->Bool("fix_initial_state").value_or(false);
+    spec.node_guess = ms->Choice("node_guess", {"simulation", "data"}).value_or("simulation");
+  }
+  if (auto c = e.Sub("collocation")) {
+    c->Allow({"scheme", "degree", "weights"});
+    if (auto s = c->Choice("scheme", {"radau", "legendre"})) {
+      spec.collocation.scheme =
+          *s == "radau" ? CollocationScheme::kRadau : CollocationScheme::kLegendre;
+    }
+    if (auto d = c->Integer("degree", 1, 9)) spec.collocation.degree = static_cast<int>(*d);
+    if (spec.method == "collocation") {
+      spec.output_weights = ParseWeights(*c, "weights", outputs, "a model output");
+    }
+  }
+  const bool states_only = spec.method != "equation_error";
+  if (auto ee = e.Sub("equation_error")) {
+    ParseEquationError(*ee, *problem, &spec.equation_error, states_only);
+  } else if (!states_only || spec.node_guess == "data") {
+    const toml::table empty;
+    ParseEquationError(Section(e.file(), empty, e.Join("equation_error")), *problem,
+                       &spec.equation_error, states_only);
+  }
+  if (auto i = e.Sub("ipopt")) ParseIpopt(*i, &spec.ipopt);
+  if (auto c = e.Sub("ceres")) ParseCeres(*c, &spec.ceres);
+}
+
+void ParseMetrics(const Section& top, Problem* problem) {
+  if (auto m = top.Sub("metrics")) {
+    m->Allow({"n_step", "n_step_stride"});
+    problem->metrics.where = m->Where();
+    problem->metrics.n_step = static_cast<int>(m->Integer("n_step", 0, 1000000).value_or(0));
+    problem->metrics.n_step_stride =
+        static_cast<int>(m->Integer("n_step_stride", 1, 1000000).value_or(1));
+  }
+}
+
+}  // namespace graybox::estimators::internal

@@ -17,6 +17,8 @@
 #include "graybox/estimators/collocation.h"
 #include "graybox/estimators/covariance.h"
 #include "graybox/estimators/multiple_shooting.h"
+#include "graybox/estimators/n_step_loss.h"
+#include "graybox/estimators/regularization.h"
 #include "graybox/estimators/single_shooting.h"
 #include "graybox/estimators/weights.h"
 #include "report.h"
@@ -176,14 +178,16 @@ struct EquationState {
 };
 
 struct Formulated {
-  // The NLP (owned by one of the problems below) and how to read the solution.
-  const estimators::Nlp* nlp = nullptr;
+  // The NLP (owned by one of the problems below), its parameter map, and how to read the solution.
+  estimators::Nlp* nlp = nullptr;
+  const estimators::ParameterMap* map = nullptr;
   std::function<Eigen::VectorXd(const Eigen::VectorXd&)> parameters;
   std::function<std::map<std::string, Eigen::VectorXd>(const Eigen::VectorXd&)> initial_states;
   std::function<estimators::UncertaintyReport(const Eigen::VectorXd&, const Eigen::VectorXd&)>
       covariance;
   std::shared_ptr<estimators::ShootingProblem> shooting;
   std::shared_ptr<estimators::CollocationProblem> collocation;
+  std::shared_ptr<estimators::NStepLossProblem> n_step;
   std::shared_ptr<EquationState> equation;
   std::shared_ptr<const std::vector<estimators::ExperimentData>> experiments;
   std::vector<std::pair<std::string, std::string>> summary;
@@ -207,13 +211,94 @@ std::vector<estimators::ExperimentData> ShootingExperiments(
   return out;
 }
 
-Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>& est) {
+// The N-step loss (n_step_loss.h) from the states of the estimation splits (derived from the
+// measurements as for node_guess = "data"); weights not given in the file are 1 / std.
+void FormulateNStep(const Problem& problem, const std::vector<const SplitData*>& est,
+                    Formulated* f) {
+  const estimators::EstimationSpec& spec = problem.estimation;
+  const models::StateSpaceModel& m = problem.built;
+  std::vector<Eigen::MatrixXd> states;
+  for (const SplitData* s : est) {
+    states.push_back(StatesFromData(problem, spec.equation_error, s->experiment));
+  }
+  estimators::NStepLossOptions options = spec.n_step;
+  std::vector<int> channels = options.channels;
+  if (channels.empty()) {
+    for (int i = 0; i < m.NumStates(); ++i) channels.push_back(i);
+  }
+  if (options.weights.size() > 0) {  // 0 marks "not given in the file": 1 / std from the data
+    std::vector<Eigen::MatrixXd> scored;
+    std::vector<const Eigen::MatrixXd*> blocks;
+    for (const auto& x : states) {
+      Eigen::MatrixXd c(x.rows(), static_cast<Eigen::Index>(channels.size()));
+      for (std::size_t j = 0; j < channels.size(); ++j) {
+        c.col(static_cast<Eigen::Index>(j)) = x.col(channels[j]);
+      }
+      scored.push_back(std::move(c));
+    }
+    for (const auto& c : scored) blocks.push_back(&c);
+    const Eigen::VectorXd from_data = estimators::InverseStdWeights(blocks);
+    for (Eigen::Index j = 0; j < options.weights.size(); ++j) {
+      if (options.weights[j] == 0.0) options.weights[j] = from_data[j];
+    }
+  }
+  f->n_step = std::make_shared<estimators::NStepLossProblem>(
+      estimators::BuildNStepLoss(m, *f->experiments, states, options));
+  const auto np = f->n_step;
+  const auto ex = f->experiments;
+  f->nlp = &np->nlp;
+  f->map = &np->parameters;
+  f->parameters = [np](const Eigen::VectorXd& w) { return np->Parameters(w); };
+  f->initial_states = [ex](const Eigen::VectorXd&) {  // not estimated: the data's
+    std::map<std::string, Eigen::VectorXd> x0;
+    for (const auto& e : *ex) x0[e.name] = e.x0;
+    return x0;
+  };
+  // Gauss-Newton on the loss's residuals with one noise variance per scored channel (rows are
+  // window, step, channel; regularisation rows, if any, follow as one more channel).
+  f->covariance = [np, &m](const Eigen::VectorXd& w, const Eigen::VectorXd& p) {
+    const estimators::Nlp& nlp = np->nlp;
+    Eigen::VectorXd r(nlp.NumResiduals());
+    const auto status = nlp.Residuals(w.data(), r.data());
+    if (!status.ok) throw std::runtime_error("residuals: " + status.message);
+    std::vector<models::ModelParameter> params = m.parameters;
+    for (std::size_t i = 0; i < params.size(); ++i) params[i].value = p[static_cast<int>(i)];
+    estimators::CovarianceOptions options;
+    const int nc = static_cast<int>(np->channels.size());
+    options.row_channels.resize(static_cast<std::size_t>(r.size()));
+    for (Eigen::Index k = 0; k < r.size(); ++k) {
+      options.row_channels[static_cast<std::size_t>(k)] =
+          k < np->num_scored ? static_cast<int>(k % nc) : nc;
+    }
+    return estimators::CovarianceFromJacobian(ParameterJacobian(nlp, w, np->parameters.scale), r,
+                                              params, np->parameters.free, options);
+  };
+  std::string names;
+  for (int c : np->channels) names += (names.empty() ? "" : ", ") + m.states[c].name;
+  long starts = 0;
+  for (const auto& s : np->starts) starts += static_cast<long>(s.size());
+  f->summary.emplace_back("steps", std::to_string(options.steps));
+  f->summary.emplace_back("stride", std::to_string(options.stride));
+  f->summary.emplace_back("starts", std::to_string(starts));
+  f->summary.emplace_back("channels", names);
+  f->summary.emplace_back("integrator",
+                          estimators::IntegrationMethodName(options.integrator.method));
+  Progress("  n-step loss: " + std::to_string(starts) + " windows of " +
+           std::to_string(options.steps) + " samples, " + std::to_string(np->num_scored) +
+           " scored values");
+}
+
+Formulated BuildFormulation(const Problem& problem, const std::vector<const SplitData*>& est) {
   const estimators::EstimationSpec& spec = problem.estimation;
   const models::StateSpaceModel& m = problem.built;
   Formulated f;
   f.summary.emplace_back("method", spec.method);
   f.summary.emplace_back("solver", spec.solver);
-  f.summary.emplace_back("substeps", std::to_string(spec.substeps));
+  f.summary.emplace_back("step_scheme", estimators::StepSchemeName(spec.step.scheme));
+  f.summary.emplace_back("substeps", std::to_string(spec.step.substeps));
+  if (spec.step.scheme != estimators::StepScheme::kRk4) {
+    f.summary.emplace_back("newton_iterations", std::to_string(spec.step.newton_iterations));
+  }
   std::string names;
   for (const SplitData* s : est) names += (names.empty() ? "" : ", ") + s->name;
   f.summary.emplace_back("estimation_splits", names);
@@ -226,6 +311,7 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
     eq.fit = std::make_unique<EquationErrorFit>(BuildEquationErrorFit(problem, eq.model, samples));
     const auto state = f.equation;
     f.nlp = &eq.fit->nlp;
+    f.map = &eq.model.parameters;
     f.parameters = [state](const Eigen::VectorXd& w) { return state->model.parameters.Values(w); };
     f.initial_states = [](const Eigen::VectorXd&) {
       return std::map<std::string, Eigen::VectorXd>();
@@ -266,7 +352,6 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
       ShootingExperiments(problem, est));
   const auto ex = f.experiments;
   const Eigen::VectorXd weights = OutputWeights(problem, *ex);
-  const int substeps = spec.substeps;
   if (spec.method == "collocation") {
     estimators::CollocationOptions options = spec.collocation;
     options.output_weights = weights;
@@ -274,6 +359,7 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
         estimators::BuildCollocation(m, *ex, options));
     const auto cp = f.collocation;
     f.nlp = &cp->nlp;
+    f.map = &cp->parameters;
     f.parameters = [cp](const Eigen::VectorXd& w) { return cp->Parameters(w); };
     f.initial_states = [cp, ex](const Eigen::VectorXd& w) {
       std::map<std::string, Eigen::VectorXd> x0;
@@ -298,9 +384,10 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
     f.summary.emplace_back("integrator",
                            estimators::IntegrationMethodName(options.integrator.method));
     f.summary.emplace_back("fix_initial_state", options.fix_initial_state ? "true" : "false");
+  } else if (spec.method == "n_step") {
+    FormulateNStep(problem, est, &f);
   } else {
     estimators::MultipleShootingOptions options = spec.multiple_shooting;
-    options.step.substeps = substeps;
     options.output_weights = weights;
     f.shooting = std::make_shared<estimators::ShootingProblem>(
         estimators::BuildMultipleShooting(m, *ex, options));
@@ -313,6 +400,7 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
   if (f.shooting) {
     const auto sp = f.shooting;
     f.nlp = &sp->nlp;
+    f.map = &sp->parameters;
     f.parameters = [sp](const Eigen::VectorXd& w) { return sp->Parameters(w); };
     f.initial_states = [sp, ex](const Eigen::VectorXd& w) {
       std::map<std::string, Eigen::VectorXd> x0;
@@ -326,9 +414,12 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
       return x0;
     };
   }
-  const Eigen::VectorXd used_weights =
-      f.shooting ? f.shooting->output_weights : f.collocation->output_weights;
-  if (spec.method == "multiple_shooting") {
+  const Eigen::VectorXd used_weights = f.shooting      ? f.shooting->output_weights
+                                       : f.collocation ? f.collocation->output_weights
+                                                       : Eigen::VectorXd();
+  if (spec.method == "n_step") {
+    // Set by FormulateNStep: the Gauss-Newton covariance of the loss itself.
+  } else if (spec.method == "multiple_shooting") {
     // Gauss-Newton covariance of the shooting NLP itself (continuity weighted as the Ceres form
     // penalises it, nodes marginalised): finite even when a whole-record simulation drifts.
     const auto sp = f.shooting;
@@ -353,6 +444,22 @@ Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>
   Progress("  " + spec.method + ": " + std::to_string(samples) + " samples in " +
            std::to_string(ex->size()) + " experiment(s), " + std::to_string(f.nlp->NumVariables()) +
            " variables");
+  return f;
+}
+
+// The formulation with the [[estimation.regularization]] terms added to its NLP.
+Formulated Formulate(const Problem& problem, const std::vector<const SplitData*>& est) {
+  Formulated f = BuildFormulation(problem, est);
+  const estimators::RegularizationOptions& reg = problem.estimation.regularization;
+  if (reg.terms.empty()) return f;
+  estimators::AddRegularization(*f.map, reg, f.nlp);
+  for (const estimators::RegularizationTerm& t : reg.terms) {
+    const std::string what = "lambda " + Sci(t.weight) + " toward " +
+                             estimators::RegularizationReferenceName(t.reference) + " on " +
+                             std::to_string(t.parameters.size()) + " parameters";
+    f.summary.emplace_back("regularization." + t.name, what);
+    Progress("  regularization '" + t.name + "': " + what);
+  }
   return f;
 }
 

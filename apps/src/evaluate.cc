@@ -54,7 +54,7 @@ void EvaluateNStep(const estimators::Problem& problem, const estimators::SplitDa
   estimators::NStepSimulationOptions options;
   options.scoring.steps = steps;
   options.scoring.stride = problem.metrics.n_step_stride;
-  options.step.substeps = problem.estimation.substeps;
+  options.step = problem.estimation.step;
   e->n_step = estimators::NStepNrmsSimulated(problem.built, x, ex.u, p, ex.dt, options);
   e->has_n_step = true;
 }

@@ -20,6 +20,10 @@ void NStepLossOptions::Validate() const {
     throw std::invalid_argument("NStepLossOptions.stride: expected >= 1, got " +
                                 std::to_string(stride));
   }
+  if (first_start < 0) {
+    throw std::invalid_argument("NStepLossOptions.first_start: expected >= 0, got " +
+                                std::to_string(first_start));
+  }
   if (num_threads < 1) {
     throw std::invalid_argument("NStepLossOptions.num_threads: expected >= 1, got " +
                                 std::to_string(num_threads));
@@ -189,16 +193,17 @@ NStepLossProblem BuildNStepLoss(const models::StateSpaceModel& model,
                                   " and " + std::to_string(x.rows()) + "x" +
                                   std::to_string(x.cols()));
     }
-    if (x.rows() <= options.steps) {
-      throw std::invalid_argument(where +
-                                  ": expected more than steps = " + std::to_string(options.steps) +
+    if (x.rows() <= options.first_start + options.steps) {
+      throw std::invalid_argument(where + ": expected more than first_start + steps = " +
+                                  std::to_string(options.first_start + options.steps) +
                                   " samples, got " + std::to_string(x.rows()));
     }
     if (!ex.u.allFinite() || !x.allFinite()) {
       throw std::invalid_argument(where + ": inputs or measured states contain NaN or Inf");
     }
     std::vector<int> starts;
-    for (int k = 0; k + options.steps <= x.rows() - 1; k += options.stride) starts.push_back(k);
+    for (int k = options.first_start; k + options.steps <= x.rows() - 1; k += options.stride)
+      starts.push_back(k);
     problem.num_scored +=
         static_cast<long>(starts.size()) * options.steps * static_cast<long>(channels.size());
     problem.starts.push_back(std::move(starts));

@@ -271,22 +271,116 @@ void ParseEquationError(const Section& e, const Problem& problem, EquationErrorS
   spec->weights = ParseWeights(e, "weights", channels, "a residual channel");
 }
 
+void ParseNStep(const Section& s, const models::StateSpaceModel& m, NStepLossOptions* options) {
+  s.Allow({"steps", "stride", "first_start", "channels", "weights", "num_threads"});
+  if (auto v = s.Integer("steps", 1, 100000)) options->steps = static_cast<int>(*v);
+  if (auto v = s.Integer("stride", 1, 1000000)) options->stride = static_cast<int>(*v);
+  if (auto v = s.Integer("first_start", 0, 100000000)) options->first_start = static_cast<int>(*v);
+  if (auto v = s.Integer("num_threads", 1, 256)) options->num_threads = static_cast<int>(*v);
+  std::vector<std::string> states;
+  for (const auto& x : m.states) states.push_back(x.name);
+  for (const std::string& name : s.Strings("channels")) {
+    const auto it = std::find(states.begin(), states.end(), name);
+    if (it == states.end()) {
+      s.Fail("channels", "'" + name + "' is not a model state" + Suggestion(name, states) + " (" +
+                             Quoted(states) + ")");
+    }
+    options->channels.push_back(static_cast<int>(it - states.begin()));
+  }
+  const std::map<std::string, double> weights = ParseWeights(s, "weights", states, "a model state");
+  if (!weights.empty()) {
+    // One weight per scored channel; the channels not given keep 1 / std, filled in by the caller
+    // (which has the data): marked by 0 here.
+    std::vector<int> scored = options->channels;
+    if (scored.empty()) {
+      for (int i = 0; i < m.NumStates(); ++i) scored.push_back(i);
+    }
+    options->weights = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(scored.size()));
+    for (const auto& [name, w] : weights) {
+      const int i =
+          static_cast<int>(std::find(states.begin(), states.end(), name) - states.begin());
+      const auto at = std::find(scored.begin(), scored.end(), i);
+      if (at == scored.end()) {
+        s.Fail("weights", "weight of '" + name + "': the state is not among 'channels'");
+      }
+      options->weights[at - scored.begin()] = w;
+    }
+  }
+}
+
+RegularizationTerm ParseRegularization(const Section& s, const models::StateSpaceModel& m) {
+  s.Allow({"name", "parameters", "weight", "toward"});
+  RegularizationTerm term;
+  term.name = s.String("name").value_or(s.path());
+  if (!s.Has("weight")) s.Fail("", "missing key 'weight': expected a number >= 0 (lambda)");
+  term.weight = *s.Number("weight");
+  if (term.weight < 0.0) {
+    s.Fail("weight", "'weight': expected a number >= 0, got " + Format(term.weight));
+  }
+  if (auto t = s.Choice("toward", {"zero", "initial"})) {
+    term.reference = ParseRegularizationReference(*t);
+  }
+  const std::vector<std::string> patterns = s.Strings("parameters");
+  if (patterns.empty()) {
+    s.Fail("parameters", "expected a non-empty array of parameter names or patterns ('net.*')");
+  }
+  std::vector<std::string> names;
+  for (const auto& p : m.parameters) names.push_back(p.name);
+  for (const std::string& pattern : patterns) {
+    const bool glob = pattern.find('*') != std::string::npos;
+    int matched = 0;
+    for (std::size_t i = 0; i < m.parameters.size(); ++i) {
+      const models::ModelParameter& par = m.parameters[i];
+      if (glob ? !GlobMatch(pattern, par.name) : pattern != par.name) continue;
+      if (!par.free) {
+        if (glob) continue;  // a pattern selects the free parameters it matches
+        s.Fail("parameters", "parameter '" + pattern +
+                                 "' is fixed: expected a free parameter (a fixed one has nothing "
+                                 "to regularise)");
+      }
+      if (std::find(term.parameters.begin(), term.parameters.end(), static_cast<int>(i)) ==
+          term.parameters.end()) {
+        term.parameters.push_back(static_cast<int>(i));
+      }
+      ++matched;
+    }
+    if (matched == 0) {
+      s.Fail("parameters",
+             glob ? "pattern '" + pattern + "' matches no free parameter"
+                  : "'" + pattern + "' is not a model parameter" + Suggestion(pattern, names));
+    }
+  }
+  return term;
+}
+
 void ParseEstimation(const Section& root, Problem* problem) {
   auto est = root.Sub("estimation");
   if (!est) root.Fail("", "missing table [estimation]: expected at least method = '...'");
   const Section& e = *est;
-  e.Allow({"method", "solver", "seed", "substeps", "integrator", "multiple_shooting", "collocation",
-           "equation_error", "ipopt", "ceres"});
+  e.Allow({"method", "solver", "seed", "scheme", "substeps", "newton_iterations", "integrator",
+           "multiple_shooting", "collocation", "equation_error", "n_step", "ipopt", "ceres",
+           "regularization"});
   EstimationSpec& spec = problem->estimation;
   spec.where = e.Where();
   if (!e.Has("method")) e.Fail("", "missing key 'method'");
-  spec.method = *e.Choice(
-      "method", {"multiple_shooting", "single_shooting", "collocation", "equation_error"});
-  spec.solver = e.Choice("solver", {"ipopt", "ceres"})
-                    .value_or(spec.method == "equation_error" ? "ceres" : "ipopt");
+  spec.method = *e.Choice("method", {"multiple_shooting", "single_shooting", "collocation",
+                                     "equation_error", "n_step"});
+  const bool least_squares = spec.method == "equation_error" || spec.method == "n_step";
+  spec.solver = e.Choice("solver", {"ipopt", "ceres"}).value_or(least_squares ? "ceres" : "ipopt");
   spec.seed = static_cast<unsigned>(e.Integer("seed", 0, 4294967295L).value_or(1));
-  spec.substeps = static_cast<int>(e.Integer("substeps", 1, 1000).value_or(1));
-  spec.integrator.fixed_step.substeps = spec.substeps;
+  if (auto v = e.Choice("scheme", {"rk4", "backward_euler", "trapezoidal", "radau_iia"})) {
+    spec.step.scheme = ParseStepScheme(*v);
+  }
+  spec.step.substeps = static_cast<int>(e.Integer("substeps", 1, 1000).value_or(1));
+  if (auto v = e.Integer("newton_iterations", 1, 100)) {
+    if (spec.step.scheme == StepScheme::kRk4) {
+      e.Fail("newton_iterations",
+             "'newton_iterations' applies to the implicit schemes only: expected scheme = "
+             "'backward_euler', 'trapezoidal' or 'radau_iia', got scheme = 'rk4'");
+    }
+    spec.step.newton_iterations = static_cast<int>(*v);
+  }
+  spec.integrator.fixed_step = spec.step;
   if (auto in = e.Sub("integrator")) ParseIntegrator(*in, &spec.integrator);
   if (spec.method == "collocation" && spec.solver != "ipopt") {
     e.Fail("solver", "collocation has equality constraints: expected solver = 'ipopt', got '" +
@@ -294,7 +388,7 @@ void ParseEstimation(const Section& root, Problem* problem) {
   }
   std::vector<std::string> outputs;
   for (const auto& s : problem->built.outputs) outputs.push_back(s.name);
-  spec.multiple_shooting.step.substeps = spec.substeps;
+  spec.multiple_shooting.step = spec.step;
   spec.multiple_shooting.continuity_as_constraints = spec.solver == "ipopt";
   if (auto ms = e.Sub("multiple_shooting")) {
     ms->Allow({"segment_length", "continuity", "continuity_weight", "weights", "fix_initial_state",
@@ -331,13 +425,18 @@ void ParseEstimation(const Section& root, Problem* problem) {
   const bool states_only = spec.method != "equation_error";
   if (auto ee = e.Sub("equation_error")) {
     ParseEquationError(*ee, *problem, &spec.equation_error, states_only);
-  } else if (!states_only || spec.node_guess == "data") {
+  } else if (!states_only || spec.node_guess == "data" || spec.method == "n_step") {
     const toml::table empty;
     ParseEquationError(Section(e.file(), empty, e.Join("equation_error")), *problem,
                        &spec.equation_error, states_only);
   }
+  spec.n_step.integrator = spec.integrator;
+  if (auto n = e.Sub("n_step")) ParseNStep(*n, problem->built, &spec.n_step);
   if (auto i = e.Sub("ipopt")) ParseIpopt(*i, &spec.ipopt);
   if (auto c = e.Sub("ceres")) ParseCeres(*c, &spec.ceres);
+  for (const Section& r : e.SubArray("regularization")) {
+    spec.regularization.terms.push_back(ParseRegularization(r, problem->built));
+  }
 }
 
 void ParseMetrics(const Section& top, Problem* problem) {

@@ -201,6 +201,82 @@ TEST_F(GeneratedCli, SingleShootingThroughCvodesRecoversKnownParameters) {
   EXPECT_TRUE(std::isfinite(result["parameters"]["load.mass"]["std_error"].get<double>()));
 }
 
+// The N-step loss from a problem file, simulated by Radau IIA: the measured velocity that starts
+// every window is the central difference of the noise-free position, off by about dt^2 / 6 times
+// the third derivative (~1e-4 relative), which biases the estimates by about that much; 2e-3
+// leaves margin. Windows start from sample 5: at sample 0 the velocity is a one-sided difference,
+// off by half a sample's acceleration (0.0075 m/s), which alone moved the mass by 1.7 %.
+TEST_F(GeneratedCli, NStepLossThroughAnImplicitSchemeRecoversKnownParameters) {
+  const RunResult r =
+      Fit(PushedProblem("[estimation]\n"
+                        "method = \"n_step\"\n"
+                        "scheme = \"radau_iia\"\n"
+                        "substeps = 2\n"
+                        "[estimation.n_step]\n"
+                        "steps = 20\n"
+                        "stride = 5\n"
+                        "first_start = 5\n"
+                        "channels = [\"load.q\"]\n"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJson(dir_ / "out/result.json");
+  EXPECT_EQ(result["formulation"]["method"], "n_step");
+  EXPECT_EQ(result["formulation"]["step_scheme"], "radau_iia");
+  EXPECT_EQ(result["formulation"]["starts"], "25");  // 5, 10, ..., 125 <= 149 - 20
+  constexpr double kNStepRecovery = 2e-3;
+  EXPECT_NEAR(Value(result, "load.mass"), kTrueMass, kNStepRecovery * kTrueMass);
+  EXPECT_NEAR(Value(result, "friction.fv"), kTrueViscous, kNStepRecovery * kTrueViscous);
+  EXPECT_TRUE(std::isfinite(result["parameters"]["load.mass"]["std_error"].get<double>()));
+}
+
+// A strong prior toward the initial value holds the mass there while the viscous coefficient
+// still fits; the term is reported. lambda = 1e8 against a data term of order 1: the mass moves
+// by about (data gradient) / (2 lambda) ~ 1e-8.
+TEST_F(GeneratedCli, RegularizationTowardTheInitialValueHoldsAParameter) {
+  const RunResult r =
+      Fit(PushedProblem("[estimation]\n"
+                        "method = \"multiple_shooting\"\n"
+                        "[[estimation.regularization]]\n"
+                        "name = \"prior\"\n"
+                        "parameters = [\"load.*\"]\n"
+                        "weight = 1e8\n"
+                        "toward = \"initial\"\n"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJson(dir_ / "out/result.json");
+  EXPECT_TRUE(result["formulation"].contains("regularization.prior")) << result["formulation"];
+  constexpr double kHeld = 1e-6;
+  EXPECT_NEAR(Value(result, "load.mass"), 1.0, kHeld);
+  EXPECT_GT(std::fabs(Value(result, "friction.fv") - 1.0), 0.1);  // moved from its start
+}
+
+TEST_F(GeneratedCli, BadStepAndRegularizationSettingsAreBadInput) {
+  struct Case {
+    std::string estimation, expected;
+  };
+  const Case cases[] = {
+      {"[estimation]\nmethod = \"multiple_shooting\"\nnewton_iterations = 3\n",
+       "applies to the implicit schemes only"},
+      {"[estimation]\nmethod = \"multiple_shooting\"\nscheme = \"radau\"\n",
+       "expected one of 'rk4', 'backward_euler', 'trapezoidal', 'radau_iia', got 'radau'"},
+      {"[estimation]\nmethod = \"n_step\"\n[estimation.n_step]\nchannels = [\"load.v\"]\n",
+       "'load.v' is not a model state"},
+      {"[estimation]\nmethod = \"multiple_shooting\"\n[[estimation.regularization]]\n"
+       "parameters = [\"net.*\"]\nweight = 1.0\n",
+       "pattern 'net.*' matches no free parameter"},
+      {"[estimation]\nmethod = \"multiple_shooting\"\n[[estimation.regularization]]\n"
+       "parameters = [\"load.mas\"]\nweight = 1.0\n",
+       "did you mean 'load.mass'"},
+      {"[estimation]\nmethod = \"multiple_shooting\"\n[[estimation.regularization]]\n"
+       "parameters = [\"load.mass\"]\n",
+       "missing key 'weight'"},
+  };
+  for (const Case& c : cases) {
+    const RunResult r = Fit(PushedProblem(c.estimation), "bad");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir_ / "bad"));
+  }
+}
+
 TEST_F(GeneratedCli, UnknownIntegratorKeyIsBadInputWithItsLine) {
   const RunResult r =
       Fit(PushedProblem("[estimation]\n"

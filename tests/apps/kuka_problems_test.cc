@@ -1,7 +1,7 @@
 // The shipped KUKA KR300 problems end to end (problems/kuka): the roblue simulated data, where
 // multiple shooting must recover the generating model's 18 friction parameters from a start 30 %
 // away, and the IROS 2021 real recordings (trajectory A fitted, B and C validated), held to the
-// figures recorded in problems/kuka/README.md.
+// figures recorded in problems/kuka/README.md; the same friction by the 150-step loss.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -88,6 +88,33 @@ TEST(KukaProblems, Iros2021FrictionFitValidatesOnBAndC) {
     const Json& p = result["parameters"]["coulomb" + std::to_string(i) + ".fc"];
     EXPECT_GT(p["value"].get<double>(), 0.0);
     EXPECT_LT(p["std_error"].get<double>(), kWellDetermined * p["value"].get<double>()) << i;
+  }
+}
+
+// The 150-step loss minimises on trajectory A the figure the multiple-shooting fit reaches as a
+// by-product (measured 0.1262): it must not do worse there (measured 0.1242 over all 2301 starts,
+// fitted on every 10th); B and C are held to their measured figures plus 10 %.
+constexpr double kIrosMultipleShootingA = 0.1262;
+constexpr double kIrosNStepLossB = 0.240;  // measured 0.2180
+constexpr double kIrosNStepLossC = 0.348;  // measured 0.3160
+
+TEST(KukaProblems, Iros2021NStepLossBeatsMultipleShootingOnItsOwnMetric) {
+  if (!fs::exists(kData + "/kuka_kr300_iros2021/rec_2020-10-21_10s_FF_A_08ms.mat")) {
+    GTEST_SKIP() << "no data";
+  }
+  ScratchDir dir;
+  const RunResult r = RunGraybox(
+      "fit '" + kKukaDir + "/iros2021_friction_nstep.toml' --out '" + (dir / "out") + "'",
+      dir / "log.txt");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Json result = ReadJsonFile(dir / "out/result.json");
+  EXPECT_EQ(result["formulation"]["method"], "n_step");
+  EXPECT_LT(result["metrics"]["A"]["n_step"]["nrms"].get<double>(), kIrosMultipleShootingA);
+  EXPECT_LT(result["metrics"]["B"]["n_step"]["nrms"].get<double>(), kIrosNStepLossB);
+  EXPECT_LT(result["metrics"]["C"]["n_step"]["nrms"].get<double>(), kIrosNStepLossC);
+  for (int i = 1; i <= 6; ++i) {
+    const Json& p = result["parameters"]["coulomb" + std::to_string(i) + ".fc"];
+    EXPECT_TRUE(std::isfinite(p["std_error"].get<double>())) << i;
   }
 }
 

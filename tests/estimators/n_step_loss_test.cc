@@ -199,7 +199,8 @@ TEST(NStepLoss, BadInputNamesThePlace) {
   };
   NStepLossOptions options;
   options.steps = 100;
-  EXPECT_NE(message(options, rec.states).find("expected more than steps = 100 samples, got 100"),
+  EXPECT_NE(message(options, rec.states)
+                .find("expected more than first_start + steps = 100 samples, got 100"),
             std::string::npos);
   options.steps = 10;
   options.channels = {2};

@@ -1,6 +1,6 @@
 // N-step-ahead simulation error as an identification loss (seed 000 eq. 7 minimised directly).
 //
-// From the measured state x_k at every start k = 0, stride, 2 stride, ... <= N_e - 1 - N of
+// From the measured state x_k at every start k = k0, k0 + stride, ... <= N_e - 1 - N of
 // every experiment e, the model is simulated N samples ahead with the measured inputs (held over
 // each sample, integrators.h), and the prediction is compared with the measured states:
 //     r_{e,k,j} = W (x_hat_{k+j|k}(theta) - x_{k+j})[channels],      j = 1 .. N,
@@ -45,8 +45,12 @@ namespace graybox::estimators {
 struct NStepLossOptions {
   /// N, the prediction horizon in samples (>= 1).
   int steps = 150;
-  /// Use every stride-th start (>= 1).
+  /// Use every stride-th start (>= 1), from sample first_start (>= 0) on: starts first_start,
+  /// first_start + stride, ... <= N_e - 1 - steps. Skipping the first samples keeps windows from
+  /// starting where states derived from the data are poor (a velocity by a one-sided difference
+  /// at the record's first sample).
   int stride = 1;
+  int first_start = 0;
   /// Scored state columns (0-based, distinct); empty scores every state. Seed 000 scores the
   /// positions and velocities of all six joints.
   std::vector<int> channels;

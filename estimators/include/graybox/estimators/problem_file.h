@@ -16,10 +16,11 @@
 //                  time (a variable), inputs / outputs: model signal -> variable (with scale,
 //                  column / row, rate = forward difference, or a constant), splits with roles,
 //                  initial_state (numbers or a variable's first sample)
-//   [estimation]   method, solver, seed, substeps, and one table per formulation
-//                  ([estimation.multiple_shooting], [estimation.collocation],
-//                  [estimation.equation_error]) and per solver ([estimation.ipopt],
-//                  [estimation.ceres])
+//   [estimation]   method, solver, seed, scheme, substeps, newton_iterations, and one table
+//                  per formulation ([estimation.multiple_shooting], [estimation.collocation],
+//                  [estimation.equation_error], [estimation.n_step]), the integrator
+//                  ([estimation.integrator]), per solver ([estimation.ipopt],
+//                  [estimation.ceres]), and [[estimation.regularization]] terms
 //
 // Errors. Every defect is reported before anything is computed or written, as a ProblemFileError
 // (a std::invalid_argument) whose message starts with the place,
@@ -47,6 +48,8 @@
 #include "graybox/estimators/dataset.h"
 #include "graybox/estimators/integrator_factory.h"
 #include "graybox/estimators/multiple_shooting.h"
+#include "graybox/estimators/n_step_loss.h"
+#include "graybox/estimators/regularization.h"
 #include "graybox/estimators/solvers.h"
 #include "graybox/models/model.h"
 
@@ -171,19 +174,21 @@ struct EquationErrorSpec {
 };
 
 struct EstimationSpec {
-  /// "multiple_shooting", "single_shooting", "collocation" or "equation_error".
+  /// "multiple_shooting", "single_shooting", "collocation", "equation_error" or "n_step".
   std::string method = "multiple_shooting";
   /// "ipopt" or "ceres" (default: ceres for equation error, ipopt otherwise).
   std::string solver;
   /// Seed of every random draw of a fit (recorded in result.json; the current formulations
   /// draw nothing).
   unsigned seed = 1;
-  /// RK4 substeps per sample in every simulation (shooting, reports, `graybox simulate`).
-  int substeps = 1;
-  /// The integrator of single shooting, of the reported simulations, of `graybox simulate` and of
-  /// the output-error covariance ([estimation.integrator]: method "fixed_step", RK4 with
-  /// `substeps`, or "cvodes" with its tolerances). Multiple shooting and collocation keep their
-  /// own discretisation (the RK4 map, collocation polynomials) inside the NLP.
+  /// The fixed-step map of every fixed-step simulation: multiple shooting's segments, the
+  /// fixed-step integrator, the N-step metric and loss, `graybox simulate` (keys `scheme`:
+  /// rk4 | backward_euler | trapezoidal | radau_iia, `substeps`, `newton_iterations`).
+  FixedStepOptions step;
+  /// The integrator of single shooting, of the N-step loss, of the reported simulations, of
+  /// `graybox simulate` and of the output-error covariance ([estimation.integrator]: method
+  /// "fixed_step" with `step`, or "cvodes" with its tolerances). Multiple shooting and collocation
+  /// keep their own discretisation (the `step` map, collocation polynomials) inside the NLP.
   IntegratorOptions integrator;
   MultipleShootingOptions multiple_shooting;
   /// Output weights by output name (default 1 / std of the channel).
@@ -193,6 +198,12 @@ struct EstimationSpec {
   std::string node_guess = "simulation";
   CollocationOptions collocation;
   EquationErrorSpec equation_error;
+  /// [estimation.n_step]: the N-step-ahead loss (n_step_loss.h); its `channels` are state
+  /// indices and `weights` follow them (empty: 1 / std). The measured states come from the data
+  /// as for node_guess = "data"; `integrator` is set from [estimation.integrator].
+  NStepLossOptions n_step;
+  /// [[estimation.regularization]]: penalties on free parameters selected by name or pattern.
+  RegularizationOptions regularization;
   IpoptOptions ipopt;
   CeresOptions ceres;
   SourceLocation where;
@@ -201,7 +212,7 @@ struct EstimationSpec {
 /// [metrics]: evaluations beyond the whole-split simulation metrics.
 struct MetricsSpec {
   /// N of the N-step-ahead NRMS (seed 000 eq. 7) reported for every split: from the measured
-  /// state at every start, N samples simulated with RK4 (`substeps`) and compared with the
+  /// state at every start, N samples simulated with the `step` map and compared with the
   /// measured states. 0 = off. Needs the states from the data (as `node_guess = "data"`).
   int n_step = 0;
   int n_step_stride = 1;  // every stride-th start

@@ -49,7 +49,10 @@ FullRate FullRateSignals(const estimators::Problem& problem, const EquationModel
   const EquationErrorSpec& spec = problem.estimation.equation_error;
   const Experiment& e = split.experiment;
   const Eigen::MatrixXd x = StatesFromData(problem, spec, e);
-  const Eigen::MatrixXd xdot = estimators::CentralDifference(x, e.dt);
+  const bool fft = spec.differentiation == "fft";
+  const Eigen::MatrixXd xdot = fft ? estimators::FftDerivative(x, e.dt, spec.fft_cutoff_bin)
+                                   : estimators::CentralDifference(x, e.dt);
+  const Eigen::MatrixXd u = fft ? estimators::FftLowPass(e.u, spec.fft_cutoff_bin) : e.u;
   const int n = e.NumSamples();
   const int kept = n - spec.skip_samples;
   if (kept < 2) {
@@ -62,7 +65,7 @@ FullRate FullRateSignals(const estimators::Problem& problem, const EquationModel
   f.dt = e.dt;
   f.time = e.Time().tail(kept);
   f.x = x.bottomRows(kept);
-  f.u = e.u.bottomRows(kept);
+  f.u = u.bottomRows(kept);
   const int nc = static_cast<int>(model.residual_states.size());
   f.xdot.resize(kept, nc);
   f.target.resize(kept, nc);
@@ -161,7 +164,9 @@ Eigen::MatrixXd StatesFromData(const estimators::Problem& problem, const Equatio
     const int out = IndexOf(m.outputs, name);
     if (out >= 0) {
       v = experiment.y.col(out);
-      if (spec.lowpass_hz > 0.0) {
+      if (spec.differentiation == "fft") {
+        v = estimators::FftLowPass(v, spec.fft_cutoff_bin);
+      } else if (spec.lowpass_hz > 0.0) {
         v = estimators::FiltFilt(
             estimators::ButterworthLowPass(spec.lowpass_order, spec.lowpass_hz, dt), v,
             spec.lowpass_padding);
@@ -172,7 +177,10 @@ Eigen::MatrixXd StatesFromData(const estimators::Problem& problem, const Equatio
         throw std::invalid_argument("equation error: state '" + name +
                                     "' cannot be obtained from the data");
       }
-      v = estimators::CentralDifference(value(d->second), dt);
+      v = spec.differentiation == "fft"
+              ? Eigen::VectorXd(
+                    estimators::FftDerivative(value(d->second), dt, spec.fft_cutoff_bin))
+              : Eigen::VectorXd(estimators::CentralDifference(value(d->second), dt));
     }
     cache[name] = v;
     return v;

@@ -33,7 +33,8 @@
 namespace graybox::app {
 
 /// The states of a split from its measurements (N x nx): measured outputs low-pass filtered,
-/// derivatives by central differences (EquationErrorSpec::differentiate).
+/// derivatives by central differences (EquationErrorSpec::differentiate), or both through the
+/// ideal FFT low-pass with differentiation = "fft" (seed 000 eq. 8).
 Eigen::MatrixXd StatesFromData(const estimators::Problem& problem,
                                const estimators::EquationErrorSpec& spec,
                                const estimators::Experiment& experiment);

@@ -153,9 +153,9 @@ int IntegralOf(const models::StateSpaceModel& m, int i) {
 // `states_only`: parsed for node_guess = 'data' of another method (only the state sources matter).
 void ParseEquationError(const Section& e, const Problem& problem, EquationErrorSpec* spec,
                         bool states_only) {
-  e.Allow({"form", "residual_states", "inverse_inputs", "differentiate", "lowpass_hz",
-           "lowpass_order", "lowpass_padding", "skip_samples", "decimate", "decimation",
-           "weights"});
+  e.Allow({"form", "residual_states", "inverse_inputs", "differentiate", "differentiation",
+           "fft_cutoff_bin", "lowpass_hz", "lowpass_order", "lowpass_padding", "skip_samples",
+           "decimate", "decimation", "weights"});
   const models::StateSpaceModel& m = problem.built;
   std::vector<std::string> states, inputs, outputs;
   for (const auto& s : m.states) states.push_back(s.name);
@@ -259,6 +259,22 @@ void ParseEquationError(const Section& e, const Problem& problem, EquationErrorS
     if (*v < 0.0)
       e.Fail("lowpass_hz", "expected a cut-off >= 0 Hz (0: no filter), got " + Format(*v));
     spec->lowpass_hz = *v;
+  }
+  spec->differentiation = e.Choice("differentiation", {"central", "fft"}).value_or("central");
+  if (auto v = e.Integer("fft_cutoff_bin", 1, 100000000)) {
+    if (spec->differentiation != "fft") {
+      e.Fail("fft_cutoff_bin",
+             "'fft_cutoff_bin' applies to differentiation = 'fft' only, got "
+             "differentiation = '" +
+                 spec->differentiation + "'");
+    }
+    spec->fft_cutoff_bin = static_cast<int>(*v);
+  }
+  if (spec->differentiation == "fft" && spec->lowpass_hz > 0.0) {
+    e.Fail("lowpass_hz",
+           "differentiation = 'fft' filters with its own ideal low-pass "
+           "(fft_cutoff_bin): expected lowpass_hz = 0, got " +
+               Format(spec->lowpass_hz));
   }
   if (auto v = e.Integer("lowpass_order", 1, 20)) spec->lowpass_order = static_cast<int>(*v);
   if (auto v = e.Integer("lowpass_padding", -1, 100000))

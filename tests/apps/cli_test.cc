@@ -277,7 +277,7 @@ TEST_F(GeneratedCli, RegularizationTowardTheInitialValueHoldsAParameter) {
   EXPECT_GT(std::fabs(Value(result, "friction.fv") - 1.0), 0.1);  // moved from its start
 }
 
-TEST_F(GeneratedCli, BadStepAndRegularizationSettingsAreBadInput) {
+TEST_F(GeneratedCli, BadStepRegularizationAndDifferentiationSettingsAreBadInput) {
   struct Case {
     std::string estimation, expected;
   };
@@ -297,6 +297,12 @@ TEST_F(GeneratedCli, BadStepAndRegularizationSettingsAreBadInput) {
       {"[estimation]\nmethod = \"multiple_shooting\"\n[[estimation.regularization]]\n"
        "parameters = [\"load.mass\"]\n",
        "missing key 'weight'"},
+      {"[estimation]\nmethod = \"equation_error\"\n[estimation.equation_error]\n"
+       "fft_cutoff_bin = 10\n",
+       "'fft_cutoff_bin' applies to differentiation = 'fft' only"},
+      {"[estimation]\nmethod = \"equation_error\"\n[estimation.equation_error]\n"
+       "differentiation = \"fft\"\nlowpass_hz = 5.0\n",
+       "expected lowpass_hz = 0, got 5"},
   };
   for (const Case& c : cases) {
     const RunResult r = Fit(PushedProblem(c.estimation), "bad");

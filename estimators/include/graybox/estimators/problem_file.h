@@ -159,6 +159,11 @@ struct EquationErrorSpec {
   /// state -> the signal it is the time derivative of (default: inferred from the kinematic
   /// equations dq/dt = qd of the model).
   std::map<std::string, std::string> differentiate;
+  /// "central": Butterworth low-pass (lowpass_hz) and central differences; "fft": seed 000's
+  /// eq. 8 for periodic records: outputs, inputs and every derivative through the ideal FFT
+  /// low-pass keeping the bins |m| < fft_cutoff_bin (preprocessing.h FftLowPass, FftDerivative).
+  std::string differentiation = "central";
+  int fft_cutoff_bin = 201;  // seed 000 keeps the bins i <= 200
   double lowpass_hz = 0.0;   // zero-phase Butterworth cut-off; 0 = no filtering
   int lowpass_order = 4;     // filter order (applied forward and backward)
   int lowpass_padding = -1;  // odd-reflection samples at each end; -1 = 3 * order

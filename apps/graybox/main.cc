@@ -31,7 +31,8 @@ int main(int argc, char** argv) {
       ->required();
   fit_cmd->add_flag("--verbose,-v", fit.verbose, "print the solver's iterations");
   fit_cmd->add_flag("--check-derivatives", fit.check_derivatives,
-                    "check the model's derivatives by finite differences before solving");
+                    "check the derivatives of the model and of the assembled NLP by finite "
+                    "differences before solving");
 
   CLI::App* sim_cmd =
       app.add_subcommand("simulate", "simulate every split of a problem with given parameters");

@@ -18,6 +18,7 @@
 #include "graybox/estimators/covariance.h"
 #include "graybox/estimators/multiple_shooting.h"
 #include "graybox/estimators/n_step_loss.h"
+#include "graybox/estimators/nlp_check.h"
 #include "graybox/estimators/regularization.h"
 #include "graybox/estimators/single_shooting.h"
 #include "graybox/estimators/weights.h"
@@ -530,6 +531,18 @@ int RunFit(const CommandOptions& o) {
     if (o.check_derivatives) {
       Progress("  derivative checks at the initial point (split '" + est[0]->name + "'):");
       report.derivative_checks = CheckModelDerivatives(problem, *est[0], report.initial_parameters);
+      Progress("  derivative checks of the assembled NLP at its initial point:");
+      for (const expr::DerivativeCheckResult& r :
+           estimators::CheckNlpDerivatives(*f.nlp, f.nlp->w0())) {
+        DerivativeCheckLine line;
+        line.what = r.what;
+        line.ok = r.ok;
+        line.max_error = r.max_error;
+        line.report = r.BriefReport();
+        Progress("  " + line.report);
+        if (!r.ok) std::cout << r.FullReport();
+        report.derivative_checks.push_back(line);
+      }
     }
     // Solve. From here on a failure is reported in result.json.
     t = Timer();

@@ -1,0 +1,112 @@
+// The finite-difference check of an assembled Nlp: a correct multiple-shooting problem passes
+// every check (residuals, constraints, gradient, Hessian of the Lagrangian); a residual block with
+// a wrong Jacobian column fails at exactly that column; a wrong size is rejected.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "graybox/estimators/integrator_factory.h"
+#include "graybox/estimators/multiple_shooting.h"
+#include "graybox/estimators/nlp_check.h"
+#include "graybox/models/model.h"
+
+namespace graybox::estimators {
+namespace {
+
+using models::BlockArgs;
+using models::BlockBase;
+
+constexpr double kDt = 0.02;
+
+// m qdd = tau - fv qd - fc tanh(qd / 0.05) - k q: a drive with friction and a spring.
+class SpringDrive : public BlockBase<SpringDrive> {
+ public:
+  SpringDrive() {
+    info_.type = "test.nlp_check_drive";
+    info_.description = "mass, spring, viscous and Coulomb friction";
+    info_.reference = "test";
+    info_.inputs = {{"tau", "N", "force", -2, 2}};
+    info_.states = {{"q", "m", "position", -1, 1}, {"qd", "m/s", "speed", -1, 1}};
+    info_.parameters = {{"m", "kg", "mass", 0.8, 0.01, 10.0},
+                        {"fv", "N s/m", "viscous", 0.4, 0.0, 10.0},
+                        {"fc", "N", "Coulomb", 0.3, 0.0, 10.0},
+                        {"k", "N/m", "spring", 2.0, 0.0, 100.0}};
+  }
+  template <typename S>
+  void Compute(const BlockArgs<S>& a) const {
+    using std::tanh;
+    a.xdot[0] = a.x[1];
+    a.xdot[1] =
+        (a.u[0] - a.p[1] * a.x[1] - a.p[2] * tanh(a.x[1] / 0.05) - a.p[3] * a.x[0]) / a.p[0];
+  }
+};
+
+models::StateSpaceModel DriveModel() {
+  models::Model m("drive");
+  m.AddInput("tau", "N", "force");
+  m.AddBlock("drive", std::make_shared<SpringDrive>(), {"tau"}, {});
+  m.AddOutput("drive.q");
+  return m.Build();
+}
+
+ExperimentData Experiment(const models::StateSpaceModel& model) {
+  ExperimentData ex;
+  ex.name = "sim";
+  ex.dt = kDt;
+  const int n = 200;
+  ex.u.resize(n, 1);
+  for (int k = 0; k < n; ++k) ex.u(k, 0) = std::sin(1.3 * k * kDt) + 0.5 * std::sin(4.1 * k * kDt);
+  ex.x0 = Eigen::Vector2d(0.05, 0.0);
+  ex.y = MakeIntegrator(model, kDt)->Simulate(ex.x0, ex.u, model.ParameterValues()).y;
+  return ex;
+}
+
+TEST(NlpCheck, CorrectMultipleShootingPassesEveryCheck) {
+  const models::StateSpaceModel model = DriveModel();
+  MultipleShootingOptions options;
+  options.segment_length = 10;
+  const ShootingProblem p = BuildMultipleShooting(model, {Experiment(model)}, options);
+  Eigen::VectorXd w = p.nlp.w0();
+  w.head(4) *= 1.1;  // away from the data's parameters: nonzero residuals and constraints
+  const auto results = CheckNlpDerivatives(p.nlp, w);
+  ASSERT_EQ(results.size(), 4u);  // residuals, constraints, gradient, Hessian of the Lagrangian
+  for (const auto& r : results) {
+    EXPECT_TRUE(r.ok) << r.FullReport();
+    EXPECT_GT(r.entries_checked, 0) << r.what;
+  }
+}
+
+// A residual block r = (z0^2, z0 z1) whose Jacobian is wrong in column 1 (d r1 / d z1 given as
+// 2 z0 instead of z0).
+class WrongBlock final : public ResidualBlock {
+ public:
+  int NumResiduals() const override { return 2; }
+  NlpEvalStatus Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* r,
+                         Eigen::MatrixXd* jacobian) const override {
+    *r = Eigen::Vector2d(z[0] * z[0], z[0] * z[1]);
+    if (jacobian != nullptr) {
+      jacobian->resize(2, 2);
+      *jacobian << 2 * z[0], 0.0, z[1], 2 * z[0];
+    }
+    return {};
+  }
+};
+
+TEST(NlpCheck, WrongJacobianColumnFailsAtThatColumn) {
+  Nlp nlp(Eigen::Vector2d(1.5, -0.7), Eigen::Vector2d::Constant(-10),
+          Eigen::Vector2d::Constant(10));
+  nlp.AddResidualBlock("wrong", {0, 1}, std::make_shared<WrongBlock>());
+  const auto results = CheckNlpDerivatives(nlp, nlp.w0());
+  ASSERT_EQ(results.size(), 2u);  // residuals and gradient; no Hessian check for residual blocks
+  EXPECT_FALSE(results[0].ok);
+  ASSERT_FALSE(results[0].worst.empty());
+  EXPECT_EQ(results[0].worst[0].row, 1);
+  EXPECT_EQ(results[0].worst[0].col, 1);
+  EXPECT_NEAR(results[0].worst[0].finite_difference, 1.5, 1e-8);
+  EXPECT_FALSE(results[1].ok);  // the gradient J^T r inherits the error
+  EXPECT_THROW(CheckNlpDerivatives(nlp, Eigen::VectorXd::Zero(3)), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace graybox::estimators

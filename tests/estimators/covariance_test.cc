@@ -10,12 +10,10 @@
 #include "graybox/estimators/integrators.h"
 #include "graybox/estimators/multiple_shooting.h"
 #include "graybox/estimators/solvers.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
-
-using models::BlockArgs;
-using models::BlockBase;
 
 constexpr unsigned kSeed = 3;
 
@@ -106,30 +104,10 @@ TEST(Covariance, CollinearColumnsRaiseAWarning) {
   EXPECT_NE(rep.FullReport().find("high correlation"), std::string::npos) << rep.FullReport();
 }
 
-// x' = -a x + b u, y = x: the simulation-error covariance brackets the truth.
-class FirstOrder : public BlockBase<FirstOrder> {
- public:
-  FirstOrder() {
-    info_.type = "test.first_order";
-    info_.description = "first-order lag";
-    info_.reference = "test";
-    info_.inputs = {{"u", "1", "input", -1, 1}};
-    info_.states = {{"x", "1", "state", -1, 1}};
-    info_.parameters = {{"a", "1/s", "pole", 2.0, 0.01, 100.0},
-                        {"b", "1/s", "gain", 3.0, -100.0, 100.0}};
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    a.xdot[0] = -a.p[0] * a.x[0] + a.p[1] * a.u[0];
-  }
-};
-
+// x' = -a x + b u, y = x (test_models.h's LagModel): the simulation-error covariance brackets
+// the truth.
 TEST(Covariance, SimulationErrorIntervalsCoverTheTruth) {
-  models::Model m("lag");
-  m.AddInput("u", "1");
-  m.AddBlock("plant", std::make_shared<FirstOrder>(), {"u"}, {});
-  m.AddOutput("plant.x");
-  const models::StateSpaceModel truth_model = m.Build();
+  const models::StateSpaceModel truth_model = testing::LagModel();
   const Eigen::Vector2d truth(2.0, 3.0);
   std::mt19937 rng(kSeed);
   std::normal_distribution<double> g(0.0, 1.0);

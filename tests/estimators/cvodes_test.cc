@@ -20,12 +20,16 @@
 #include "graybox/estimators/integrator_factory.h"
 #include "graybox/estimators/integrators.h"
 #include "graybox/models/model.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
 
 using models::BlockArgs;
 using models::BlockBase;
+using testing::LagModel;
+using testing::RobertsonModel;
+using testing::RobertsonOptions;
 
 // A BDF code controls the local error per step; the global error accumulates over the steps.
 // Every accuracy check below is one of these factors times the relative tolerance the integrator
@@ -68,53 +72,12 @@ Eigen::MatrixXd Stack(const std::vector<Eigen::MatrixXd>& s) {
 
 // ---- test models ------------------------------------------------------------------------------
 
-// Robertson's chemical kinetics (Robertson 1966; Hairer & Wanner, Solving ODEs II, sec. IV.1):
-//   y1' = -k1 y1 + k3 y2 y3,  y2' = k1 y1 - k3 y2 y3 - k2 y2^2,  y3' = k2 y2^2,
-// k1 = 0.04, k2 = 3e7, k3 = 1e4, y(0) = (1, 0, 0): eigenvalues down to -1e4 within 1e-3 s.
-class Robertson : public BlockBase<Robertson> {
- public:
-  Robertson() {
-    info_.type = "test.robertson";
-    info_.description = "Robertson's stiff chemical kinetics";
-    info_.reference = "Robertson 1966";
-    info_.states = {{"y1", "1", "concentration 1", 0, 1},
-                    {"y2", "1", "concentration 2", 0, 4e-5},
-                    {"y3", "1", "concentration 3", 0, 1}};
-    info_.parameters = {{"k1", "1/s", "rate 1", 0.04, 0.0, 1.0},
-                        {"k2", "1/s", "rate 2", 3e7, 0.0, 1e9},
-                        {"k3", "1/s", "rate 3", 1e4, 0.0, 1e6}};
-    info_.stiff = true;
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    const S& y1 = a.x[0];
-    const S& y2 = a.x[1];
-    const S& y3 = a.x[2];
-    a.xdot[0] = -a.p[0] * y1 + a.p[2] * y2 * y3;
-    a.xdot[1] = a.p[0] * y1 - a.p[2] * y2 * y3 - a.p[1] * y2 * y2;
-    a.xdot[2] = a.p[1] * y2 * y2;
-  }
-};
-
-models::StateSpaceModel RobertsonModel() {
-  models::Model m("robertson");
-  m.AddBlock("rob", std::make_shared<Robertson>(), {}, {});
-  m.AddOutput("rob.y1");
-  m.AddOutput("rob.y3");
-  return m.Build();
-}
+// Robertson's kinetics (RobertsonModel, RobertsonOptions), the first-order lag (LagModel): see
+// test_models.h.
 
 // Hairer & Wanner's reference solution at t = 40, to the ten digits printed.
 const Eigen::Vector3d kRobertsonAt40(0.7158270687, 9.185534764e-6, 0.2841637457);
 constexpr double kReferenceRounding = 5e-11;  // half a unit in the tenth significant digit
-
-// Robertson's tolerances: relative rtol, absolute rtol times each species' scale (y2 ~ 4e-5).
-CvodesOptions RobertsonOptions(double rtol) {
-  CvodesOptions o;
-  o.relative_tolerance = rtol;
-  o.absolute_tolerances = rtol * Eigen::Vector3d(1e-2, 1e-7, 1e-2);
-  return o;
-}
 
 // A Duffing oscillator: q'' = u - c q' - k q - k3 q^3 (non-stiff at these parameters).
 class Duffing : public BlockBase<Duffing> {
@@ -156,32 +119,6 @@ Eigen::MatrixXd DuffingInput(int n, double dt) {
     u(k, 0) = 1.2 * std::sin(2.0 * t) + 0.6 * std::sin(7.3 * t);
   }
   return u;
-}
-
-// First-order lag x' = -a x + b u, y = x: exact under a zero-order hold.
-class Lag : public BlockBase<Lag> {
- public:
-  Lag() {
-    info_.type = "test.lag";
-    info_.description = "first-order lag";
-    info_.reference = "test";
-    info_.inputs = {{"u", "1", "input", -1, 1}};
-    info_.states = {{"x", "1", "state", -1, 1}};
-    info_.parameters = {{"a", "1/s", "pole", 2.0, 0.01, 100.0},
-                        {"b", "1/s", "gain", 3.0, -100.0, 100.0}};
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    a.xdot[0] = -a.p[0] * a.x[0] + a.p[1] * a.u[0];
-  }
-};
-
-models::StateSpaceModel LagModel() {
-  models::Model m("lag");
-  m.AddInput("u", "1");
-  m.AddBlock("lag", std::make_shared<Lag>(), {"u"}, {});
-  m.AddOutput("lag.x");
-  return m.Build();
 }
 
 // x' = -x + sqrt(u): f is NaN while the input is negative.

@@ -27,12 +27,15 @@
 #include "graybox/estimators/solvers.h"
 #include "graybox/expr/derivative_check.h"
 #include "graybox/models/model.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
 
 using models::BlockArgs;
 using models::BlockBase;
+using testing::RobertsonModel;
+using testing::RobertsonOptions;
 
 // The seed of every random draw; override with GRAYBOX_SEED.
 unsigned Seed() {
@@ -334,49 +337,8 @@ TEST(ImplicitStep, StepDerivativesMatchCentralDifferences) {
 
 // ---- (d) a stiff model at the sample time ----------------------------------------------------
 
-// Robertson's chemical kinetics (Robertson 1966; Hairer & Wanner, Solving ODEs II, sec. IV.1):
-//   y1' = -k1 y1 + k3 y2 y3,  y2' = k1 y1 - k3 y2 y3 - k2 y2^2,  y3' = k2 y2^2,
-// k1 = 0.04, k2 = 3e7, k3 = 1e4: eigenvalues down to ~-1e4, so h |lambda| ~ 4e3 at h = 0.4.
-class Robertson : public BlockBase<Robertson> {
- public:
-  Robertson() {
-    info_.type = "test.robertson";
-    info_.description = "Robertson's stiff chemical kinetics";
-    info_.reference = "Robertson 1966";
-    info_.states = {{"y1", "1", "concentration 1", 0, 1},
-                    {"y2", "1", "concentration 2", 0, 4e-5},
-                    {"y3", "1", "concentration 3", 0, 1}};
-    info_.parameters = {{"k1", "1/s", "rate 1", 0.04, 0.0, 1.0},
-                        {"k2", "1/s", "rate 2", 3e7, 0.0, 1e9},
-                        {"k3", "1/s", "rate 3", 1e4, 0.0, 1e6}};
-    info_.stiff = true;
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    const S& y1 = a.x[0];
-    const S& y2 = a.x[1];
-    const S& y3 = a.x[2];
-    a.xdot[0] = -a.p[0] * y1 + a.p[2] * y2 * y3;
-    a.xdot[1] = a.p[0] * y1 - a.p[2] * y2 * y3 - a.p[1] * y2 * y2;
-    a.xdot[2] = a.p[1] * y2 * y2;
-  }
-};
-
-models::StateSpaceModel RobertsonModel() {
-  models::Model m("robertson");
-  m.AddBlock("rob", std::make_shared<Robertson>(), {}, {});
-  m.AddOutput("rob.y1");
-  m.AddOutput("rob.y3");
-  return m.Build();
-}
-
-// Robertson's tolerances: relative rtol, absolute rtol times each species' scale (y2 ~ 4e-5).
-CvodesOptions RobertsonOptions(double rtol) {
-  CvodesOptions o;
-  o.relative_tolerance = rtol;
-  o.absolute_tolerances = rtol * Eigen::Vector3d(1e-2, 1e-7, 1e-2);
-  return o;
-}
+// Robertson's kinetics (test_models.h): eigenvalues down to ~-1e4, so h |lambda| ~ 4e3 at
+// h = 0.4.
 
 // Errors over 100 samples of 0.4 s (to t = 40 s), relative to each species' largest value,
 // against CVODES at rtol 1e-10. Measured: Radau IIA 3.7e-6 (CVODES at rtol 1e-6: 5.7e-6), backward

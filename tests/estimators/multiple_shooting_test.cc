@@ -9,46 +9,16 @@
 #include "graybox/estimators/multiple_shooting.h"
 #include "graybox/estimators/solvers.h"
 #include "graybox/models/model.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
 
-using models::BlockArgs;
-using models::BlockBase;
-using models::ParameterInfo;
-
 constexpr unsigned kSeed = 11;
 constexpr double kDt = 0.01;
 
-// J qdd = tau - fv qd - fc tanh(qd / 0.05): a load inertia with viscous and smoothed Coulomb
-// friction, states q and qd.
-class FrictionDrive : public BlockBase<FrictionDrive> {
- public:
-  FrictionDrive() {
-    info_.type = "test.friction_drive";
-    info_.description = "inertia with viscous and Coulomb friction";
-    info_.reference = "test";
-    info_.inputs = {{"tau", "N m", "drive torque", -2, 2}};
-    info_.states = {{"q", "rad", "angle", -1, 1}, {"qd", "rad/s", "speed", -1, 1}};
-    info_.parameters = {{"J", "kg m^2", "inertia", 0.5, 0.01, 10.0},
-                        {"fv", "N m s/rad", "viscous friction", 0.3, 0.0, 10.0},
-                        {"fc", "N m", "Coulomb friction", 0.2, 0.0, 10.0}};
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    using std::tanh;
-    a.xdot[0] = a.x[1];
-    a.xdot[1] = (a.u[0] - a.p[1] * a.x[1] - a.p[2] * tanh(a.x[1] / 0.05)) / a.p[0];
-  }
-};
-
-models::StateSpaceModel DriveModel() {
-  models::Model m("drive");
-  m.AddInput("tau", "N m", "drive torque");
-  m.AddBlock("drive", std::make_shared<FrictionDrive>(), {"tau"}, {});
-  m.AddOutput("drive.q");
-  return m.Build();
-}
+// The drive is test_models.h's FrictionDrive: J qdd = tau - fv qd - fc tanh(qd / 0.05).
+using testing::FrictionDriveModel;
 
 struct Truth {
   Eigen::Vector3d p{0.8, 0.45, 0.35};
@@ -59,11 +29,7 @@ ExperimentData SimulatedExperiment(const models::StateSpaceModel& model, int n, 
   ExperimentData ex;
   ex.name = "sim";
   ex.dt = kDt;
-  ex.u.resize(n, 1);
-  for (int k = 0; k < n; ++k) {
-    const double t = k * kDt;
-    ex.u(k, 0) = 1.2 * std::sin(2.0 * t) + 0.6 * std::sin(7.3 * t) + 0.3 * std::sin(0.5 * t);
-  }
+  ex.u = testing::DriveTorque(n, kDt);
   ex.x0 = Eigen::Vector2d(0.1, 0.0);
   const Trajectory t = SimulateRk4(model, ex.x0, ex.u, Truth().p, kDt, 2);
   std::normal_distribution<double> eps(0.0, noise);
@@ -73,7 +39,7 @@ ExperimentData SimulatedExperiment(const models::StateSpaceModel& model, int n, 
 }
 
 models::StateSpaceModel PerturbedModel() {
-  models::StateSpaceModel model = DriveModel();
+  models::StateSpaceModel model = FrictionDriveModel();
   const Truth truth;
   for (int i = 0; i < 3; ++i) model.parameters[i].value = truth.p[i] * (i % 2 ? 0.7 : 1.3);
   return model;
@@ -84,7 +50,7 @@ constexpr double kRecoveryTolerance = 0.02;
 
 TEST(MultipleShooting, IpoptRecoversFrictionParameters) {
   std::mt19937 rng(kSeed);
-  const ExperimentData ex = SimulatedExperiment(DriveModel(), 1000, 1e-3, &rng);
+  const ExperimentData ex = SimulatedExperiment(FrictionDriveModel(), 1000, 1e-3, &rng);
   MultipleShootingOptions options;
   options.segment_length = 25;
   options.step.substeps = 2;
@@ -102,7 +68,7 @@ TEST(MultipleShooting, IpoptRecoversFrictionParameters) {
 
 TEST(MultipleShooting, CeresWithContinuityResidualsAgreesWithIpopt) {
   std::mt19937 rng(kSeed);
-  const ExperimentData ex = SimulatedExperiment(DriveModel(), 1000, 1e-3, &rng);
+  const ExperimentData ex = SimulatedExperiment(FrictionDriveModel(), 1000, 1e-3, &rng);
   MultipleShootingOptions options;
   options.segment_length = 25;
   options.step.substeps = 2;
@@ -130,14 +96,14 @@ TEST(MultipleShooting, BadInputIsRejectedWithItsPlace) {
   ex.y = Eigen::MatrixXd::Zero(9, 1);
   ex.x0 = Eigen::Vector2d::Zero();
   try {
-    BuildMultipleShooting(DriveModel(), {ex});
+    BuildMultipleShooting(FrictionDriveModel(), {ex});
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("experiment 'broken'"), std::string::npos) << e.what();
   }
   ex.y = Eigen::MatrixXd::Zero(10, 1);
   ex.y(3, 0) = std::nan("");
-  EXPECT_THROW(BuildMultipleShooting(DriveModel(), {ex}), std::invalid_argument);
+  EXPECT_THROW(BuildMultipleShooting(FrictionDriveModel(), {ex}), std::invalid_argument);
 }
 
 }  // namespace

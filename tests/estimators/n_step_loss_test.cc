@@ -12,43 +12,20 @@
 #include "graybox/estimators/n_step_loss.h"
 #include "graybox/estimators/solvers.h"
 #include "graybox/models/model.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
 
-using models::BlockArgs;
-using models::BlockBase;
-
 constexpr unsigned kSeed = 23;
 constexpr double kDt = 0.01;
 
-// J qdd = tau - fv qd - fc tanh(qd / 0.05): states q and qd.
-class FrictionDrive : public BlockBase<FrictionDrive> {
- public:
-  FrictionDrive() {
-    info_.type = "test.n_step_drive";
-    info_.description = "inertia with viscous and Coulomb friction";
-    info_.reference = "test";
-    info_.inputs = {{"tau", "N m", "drive torque", -2, 2}};
-    info_.states = {{"q", "rad", "angle", -1, 1}, {"qd", "rad/s", "speed", -1, 1}};
-    info_.parameters = {{"J", "kg m^2", "inertia", 0.5, 0.0, 10.0},
-                        {"fv", "N m s/rad", "viscous friction", 0.3, 0.0, 10.0},
-                        {"fc", "N m", "Coulomb friction", 0.2, 0.0, 10.0}};
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    using std::tanh;
-    a.xdot[0] = a.x[1];
-    a.xdot[1] = (a.u[0] - a.p[1] * a.x[1] - a.p[2] * tanh(a.x[1] / 0.05)) / a.p[0];
-  }
-};
-
+// test_models.h's FrictionDrive, J qdd = tau - fv qd - fc tanh(qd / 0.05), with parameters p and
+// the inertia bounded below by 0 so that J = 0 is an admissible trial point.
 models::StateSpaceModel DriveModel(const Eigen::Vector3d& p) {
-  models::Model m("drive");
-  m.AddInput("tau", "N m", "drive torque");
-  m.AddBlock("drive", std::make_shared<FrictionDrive>(), {"tau"}, {});
-  m.AddOutput("drive.q");
-  models::StateSpaceModel model = m.Build();
+  testing::FrictionDriveOptions options;
+  options.inertia_lower = 0.0;
+  models::StateSpaceModel model = testing::FrictionDriveModel(options);
   for (int i = 0; i < 3; ++i) model.parameters[i].value = p[i];
   return model;
 }
@@ -67,11 +44,7 @@ Record Simulated(int n, double noise, unsigned seed) {
   ExperimentData& ex = rec.experiment;
   ex.name = "sim";
   ex.dt = kDt;
-  ex.u.resize(n, 1);
-  for (int k = 0; k < n; ++k) {
-    const double t = k * kDt;
-    ex.u(k, 0) = 1.2 * std::sin(2.0 * t) + 0.6 * std::sin(7.3 * t) + 0.3 * std::sin(0.5 * t);
-  }
+  ex.u = testing::DriveTorque(n, kDt);
   ex.x0 = Eigen::Vector2d(0.1, 0.0);
   const models::StateSpaceModel truth = DriveModel(kTruth);
   const Trajectory t = MakeIntegrator(truth, kDt)->Simulate(ex.x0, ex.u, kTruth);

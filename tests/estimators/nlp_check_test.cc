@@ -10,44 +10,23 @@
 #include "graybox/estimators/multiple_shooting.h"
 #include "graybox/estimators/nlp_check.h"
 #include "graybox/models/model.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
 
-using models::BlockArgs;
-using models::BlockBase;
-
 constexpr double kDt = 0.02;
 
-// m qdd = tau - fv qd - fc tanh(qd / 0.05) - k q: a drive with friction and a spring.
-class SpringDrive : public BlockBase<SpringDrive> {
- public:
-  SpringDrive() {
-    info_.type = "test.nlp_check_drive";
-    info_.description = "mass, spring, viscous and Coulomb friction";
-    info_.reference = "test";
-    info_.inputs = {{"tau", "N", "force", -2, 2}};
-    info_.states = {{"q", "m", "position", -1, 1}, {"qd", "m/s", "speed", -1, 1}};
-    info_.parameters = {{"m", "kg", "mass", 0.8, 0.01, 10.0},
-                        {"fv", "N s/m", "viscous", 0.4, 0.0, 10.0},
-                        {"fc", "N", "Coulomb", 0.3, 0.0, 10.0},
-                        {"k", "N/m", "spring", 2.0, 0.0, 100.0}};
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    using std::tanh;
-    a.xdot[0] = a.x[1];
-    a.xdot[1] =
-        (a.u[0] - a.p[1] * a.x[1] - a.p[2] * tanh(a.x[1] / 0.05) - a.p[3] * a.x[0]) / a.p[0];
-  }
-};
-
+// test_models.h's FrictionDrive on a spring, J qdd = tau - fv qd - fc tanh(qd / 0.05) - k q, at
+// J = 0.8, fv = 0.4, fc = 0.3, k = 2: the data's parameters.
 models::StateSpaceModel DriveModel() {
-  models::Model m("drive");
-  m.AddInput("tau", "N", "force");
-  m.AddBlock("drive", std::make_shared<SpringDrive>(), {"tau"}, {});
-  m.AddOutput("drive.q");
-  return m.Build();
+  testing::FrictionDriveOptions options;
+  options.spring = true;
+  options.inertia = 0.8;
+  options.viscous = 0.4;
+  options.coulomb = 0.3;
+  options.stiffness = 2.0;
+  return testing::FrictionDriveModel(options);
 }
 
 ExperimentData Experiment(const models::StateSpaceModel& model) {

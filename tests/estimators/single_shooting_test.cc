@@ -12,50 +12,23 @@
 #include "graybox/estimators/single_shooting.h"
 #include "graybox/estimators/solvers.h"
 #include "graybox/models/model.h"
+#include "test_models.h"
 
 namespace graybox::estimators {
 namespace {
-
-using models::BlockArgs;
-using models::BlockBase;
 
 constexpr unsigned kSeed = 23;
 constexpr double kDt = 0.01;
 constexpr int kSamples = 600;
 constexpr double kNoise = 1e-3;  // rad
 
-// J qdd = tau - fv qd - fc tanh(qd / 0.05) - k q: an inertia on a spring with viscous and
-// smoothed Coulomb friction, states q and qd.
-class SpringDrive : public BlockBase<SpringDrive> {
- public:
-  SpringDrive() {
-    info_.type = "test.spring_drive";
-    info_.description = "inertia on a spring with viscous and Coulomb friction";
-    info_.reference = "test";
-    info_.inputs = {{"tau", "N m", "drive torque", -2, 2}};
-    info_.states = {{"q", "rad", "angle", -1, 1}, {"qd", "rad/s", "speed", -1, 1}};
-    info_.parameters = {{"J", "kg m^2", "inertia", 0.5, 0.01, 10.0},
-                        {"fv", "N m s/rad", "viscous friction", 0.3, 0.0, 10.0},
-                        {"fc", "N m", "Coulomb friction", 0.2, 0.0, 10.0},
-                        {"k", "N m/rad", "spring stiffness", 2.0, 0.0, 100.0}};
-  }
-  template <typename S>
-  void Compute(const BlockArgs<S>& a) const {
-    using std::tanh;
-    a.xdot[0] = a.x[1];
-    a.xdot[1] =
-        (a.u[0] - a.p[1] * a.x[1] - a.p[2] * tanh(a.x[1] / 0.05) - a.p[3] * a.x[0]) / a.p[0];
-  }
-};
-
 const Eigen::Vector4d kTruth(0.8, 0.45, 0.35, 3.0);
 
+// test_models.h's FrictionDrive on a spring: J qdd = tau - fv qd - fc tanh(qd / 0.05) - k q.
 models::StateSpaceModel SpringModel() {
-  models::Model m("spring_drive");
-  m.AddInput("tau", "N m", "drive torque");
-  m.AddBlock("drive", std::make_shared<SpringDrive>(), {"tau"}, {});
-  m.AddOutput("drive.q");
-  return m.Build();
+  testing::FrictionDriveOptions options;
+  options.spring = true;
+  return testing::FrictionDriveModel(options);
 }
 
 models::StateSpaceModel PerturbedModel() {
@@ -68,11 +41,7 @@ ExperimentData Simulated(unsigned seed) {
   ExperimentData ex;
   ex.name = "sim";
   ex.dt = kDt;
-  ex.u.resize(kSamples, 1);
-  for (int k = 0; k < kSamples; ++k) {
-    const double t = k * kDt;
-    ex.u(k, 0) = 1.2 * std::sin(2.0 * t) + 0.6 * std::sin(7.3 * t) + 0.3 * std::sin(0.5 * t);
-  }
+  ex.u = testing::DriveTorque(kSamples, kDt);
   ex.x0 = Eigen::Vector2d(0.1, 0.0);
   ex.y = SimulateRk4(SpringModel(), ex.x0, ex.u, kTruth, kDt, 4).y;
   std::mt19937 rng(seed);

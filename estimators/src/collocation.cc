@@ -137,7 +137,14 @@ CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
   for (const auto& ex : experiments) {
     const int n = static_cast<int>(ex.u.rows());
     Eigen::MatrixXd guess = ex.state_guess;
-    if (guess.size() == 0) guess = SimulateRk4(model, ex.x0, ex.u, values, ex.dt, 4).x;
+    if (guess.size() == 0) {
+      // Stiff models: the L-stable Radau IIA map, stable at any step; otherwise RK4.
+      FixedStepOptions step;
+      step.scheme = model.stiff ? StepScheme::kRadauIIA : StepScheme::kRk4;
+      step.substeps = 4;
+      step.newton_iterations = 2;
+      guess = SimulateFixedStep(model, ex.x0, ex.u, values, ex.dt, step).x;
+    }
     if (!guess.allFinite()) {
       throw std::invalid_argument("experiment '" + ex.name +
                                   "': the initial simulation diverges; give a state_guess");

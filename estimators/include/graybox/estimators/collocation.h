@@ -50,8 +50,10 @@ struct CollocationProblem {
   Eigen::VectorXd Parameters(const Eigen::VectorXd& w) const { return parameters.Values(w); }
 };
 
-/// Builds the NLP; states are initialised from each experiment's state_guess, or by RK4
-/// simulation from x0. Throws std::invalid_argument on bad sizes or non-finite data.
+/// Builds the NLP; states are initialised from each experiment's state_guess, or by simulation
+/// from x0 (RK4 with 4 substeps; the L-stable Radau IIA map for a stiff model, where RK4 at that
+/// step would overflow). Throws std::invalid_argument on bad sizes, non-finite data or a
+/// diverging initial simulation.
 CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
                                     const std::vector<ExperimentData>& experiments,
                                     const CollocationOptions& options = {});

@@ -173,6 +173,21 @@ Eigen::MatrixXd ParameterJacobian(const estimators::Nlp& nlp, const Eigen::Vecto
   return j;
 }
 
+// Gauss-Newton covariance of an NLP whose only variables are the scaled free parameters (equation
+// error, the N-step loss), from its residuals at w; p holds all model parameter values.
+estimators::UncertaintyReport ParameterOnlyCovariance(
+    const estimators::Nlp& nlp, const estimators::ParameterMap& map,
+    const models::StateSpaceModel& m, const Eigen::VectorXd& w, const Eigen::VectorXd& p,
+    const estimators::CovarianceOptions& options = {}) {
+  Eigen::VectorXd r(nlp.NumResiduals());
+  const auto status = nlp.Residuals(w.data(), r.data());
+  if (!status.ok) throw std::runtime_error("residuals: " + status.message);
+  std::vector<models::ModelParameter> params = m.parameters;
+  for (std::size_t i = 0; i < params.size(); ++i) params[i].value = p[static_cast<int>(i)];
+  return estimators::CovarianceFromJacobian(ParameterJacobian(nlp, w, map.scale), r, params,
+                                            map.free, options);
+}
+
 struct EquationState {
   EquationModel model;
   std::unique_ptr<EquationErrorFit> fit;
@@ -213,7 +228,7 @@ std::vector<estimators::ExperimentData> ShootingExperiments(
 }
 
 // The N-step loss (n_step_loss.h) from the states of the estimation splits (derived from the
-// measurements as for node_guess = "data"); weights not given in the file are 1 / std.
+// measurements as for node_guess = "data").
 void FormulateNStep(const Problem& problem, const std::vector<const SplitData*>& est,
                     Formulated* f) {
   const estimators::EstimationSpec& spec = problem.estimation;
@@ -222,27 +237,8 @@ void FormulateNStep(const Problem& problem, const std::vector<const SplitData*>&
   for (const SplitData* s : est) {
     states.push_back(StatesFromData(problem, spec.equation_error, s->experiment));
   }
-  estimators::NStepLossOptions options = spec.n_step;
-  std::vector<int> channels = options.channels;
-  if (channels.empty()) {
-    for (int i = 0; i < m.NumStates(); ++i) channels.push_back(i);
-  }
-  if (options.weights.size() > 0) {  // 0 marks "not given in the file": 1 / std from the data
-    std::vector<Eigen::MatrixXd> scored;
-    std::vector<const Eigen::MatrixXd*> blocks;
-    for (const auto& x : states) {
-      Eigen::MatrixXd c(x.rows(), static_cast<Eigen::Index>(channels.size()));
-      for (std::size_t j = 0; j < channels.size(); ++j) {
-        c.col(static_cast<Eigen::Index>(j)) = x.col(channels[j]);
-      }
-      scored.push_back(std::move(c));
-    }
-    for (const auto& c : scored) blocks.push_back(&c);
-    const Eigen::VectorXd from_data = estimators::InverseStdWeights(blocks);
-    for (Eigen::Index j = 0; j < options.weights.size(); ++j) {
-      if (options.weights[j] == 0.0) options.weights[j] = from_data[j];
-    }
-  }
+  // Weights not given in the file are 0 in spec.n_step.weights: BuildNStepLoss makes them 1 / std.
+  const estimators::NStepLossOptions& options = spec.n_step;
   f->n_step = std::make_shared<estimators::NStepLossProblem>(
       estimators::BuildNStepLoss(m, *f->experiments, states, options));
   const auto np = f->n_step;
@@ -258,21 +254,14 @@ void FormulateNStep(const Problem& problem, const std::vector<const SplitData*>&
   // Gauss-Newton on the loss's residuals with one noise variance per scored channel (rows are
   // window, step, channel; regularisation rows, if any, follow as one more channel).
   f->covariance = [np, &m](const Eigen::VectorXd& w, const Eigen::VectorXd& p) {
-    const estimators::Nlp& nlp = np->nlp;
-    Eigen::VectorXd r(nlp.NumResiduals());
-    const auto status = nlp.Residuals(w.data(), r.data());
-    if (!status.ok) throw std::runtime_error("residuals: " + status.message);
-    std::vector<models::ModelParameter> params = m.parameters;
-    for (std::size_t i = 0; i < params.size(); ++i) params[i].value = p[static_cast<int>(i)];
     estimators::CovarianceOptions options;
     const int nc = static_cast<int>(np->channels.size());
-    options.row_channels.resize(static_cast<std::size_t>(r.size()));
-    for (Eigen::Index k = 0; k < r.size(); ++k) {
-      options.row_channels[static_cast<std::size_t>(k)] =
-          k < np->num_scored ? static_cast<int>(k % nc) : nc;
+    options.row_channels.resize(static_cast<std::size_t>(np->nlp.NumResiduals()));
+    for (std::size_t k = 0; k < options.row_channels.size(); ++k) {
+      options.row_channels[k] =
+          static_cast<long>(k) < np->num_scored ? static_cast<int>(k % nc) : nc;
     }
-    return estimators::CovarianceFromJacobian(ParameterJacobian(nlp, w, np->parameters.scale), r,
-                                              params, np->parameters.free, options);
+    return ParameterOnlyCovariance(np->nlp, np->parameters, m, w, p, options);
   };
   std::string names;
   for (int c : np->channels) names += (names.empty() ? "" : ", ") + m.states[c].name;
@@ -318,15 +307,7 @@ Formulated BuildFormulation(const Problem& problem, const std::vector<const Spli
       return std::map<std::string, Eigen::VectorXd>();
     };
     f.covariance = [state, &m](const Eigen::VectorXd& w, const Eigen::VectorXd& p) {
-      const estimators::Nlp& nlp = state->fit->nlp;
-      Eigen::VectorXd r(nlp.NumResiduals());
-      const auto status = nlp.Residuals(w.data(), r.data());
-      if (!status.ok) throw std::runtime_error("residuals: " + status.message);
-      std::vector<models::ModelParameter> params = m.parameters;
-      for (std::size_t i = 0; i < params.size(); ++i) params[i].value = p[static_cast<int>(i)];
-      return estimators::CovarianceFromJacobian(
-          ParameterJacobian(nlp, w, state->model.parameters.scale), r, params,
-          state->model.parameters.free);
+      return ParameterOnlyCovariance(state->fit->nlp, state->model.parameters, m, w, p);
     };
     const auto& ee = spec.equation_error;
     f.summary.emplace_back("form", ee.form);

@@ -33,8 +33,8 @@ void NStepLossOptions::Validate() const {
   if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
     throw std::invalid_argument("NStepLossOptions.channels: expected distinct state indices");
   }
-  if (weights.size() > 0 && !(weights.array() > 0.0).all()) {
-    throw std::invalid_argument("NStepLossOptions.weights: expected every weight > 0");
+  if (weights.size() > 0 && !(weights.array() >= 0.0).all()) {
+    throw std::invalid_argument("NStepLossOptions.weights: expected every weight >= 0");
   }
   integrator.Validate();
 }
@@ -214,26 +214,28 @@ NStepLossProblem BuildNStepLoss(const models::StateSpaceModel& model,
     scored_columns.push_back(std::move(cols));
   }
   for (const auto& m : scored_columns) scored.push_back(&m);
-  if (options.weights.size() > 0) {
-    if (options.weights.size() != static_cast<Eigen::Index>(channels.size())) {
-      throw std::invalid_argument(
-          "NStepLossOptions.weights: expected " + std::to_string(channels.size()) +
-          " entries (one per scored channel), got " + std::to_string(options.weights.size()));
+  if (options.weights.size() > 0 &&
+      options.weights.size() != static_cast<Eigen::Index>(channels.size())) {
+    throw std::invalid_argument(
+        "NStepLossOptions.weights: expected " + std::to_string(channels.size()) +
+        " entries (one per scored channel), got " + std::to_string(options.weights.size()));
+  }
+  // Given weights, and 1 / std for the channels without one (all when none are given).
+  problem.weights = InverseStdWeights(scored);
+  for (std::size_t c = 0; c < channels.size(); ++c) {
+    const Eigen::Index i = static_cast<Eigen::Index>(c);
+    if (options.weights.size() > 0 && options.weights[i] > 0.0) {
+      problem.weights[i] = options.weights[i];
+      continue;
     }
-    problem.weights = options.weights;
-  } else {
-    problem.weights = InverseStdWeights(scored);
-    for (std::size_t c = 0; c < channels.size(); ++c) {
-      Eigen::Index i = static_cast<Eigen::Index>(c);
-      const double mean = scored_columns[0].col(i).mean();
-      bool constant = true;
-      for (const auto& m : scored_columns) constant = constant && (m.col(i).array() == mean).all();
-      if (constant) {
-        throw std::invalid_argument(
-            "BuildNStepLoss: measured state '" + model.states[channels[c]].name +
-            "' is constant: expected a nonzero standard deviation for its default weight 1/std "
-            "(give NStepLossOptions.weights or leave the channel out)");
-      }
+    const double mean = scored_columns[0].col(i).mean();
+    bool constant = true;
+    for (const auto& m : scored_columns) constant = constant && (m.col(i).array() == mean).all();
+    if (constant) {
+      throw std::invalid_argument(
+          "BuildNStepLoss: measured state '" + model.states[channels[c]].name +
+          "' is constant: expected a nonzero standard deviation for its default weight 1/std "
+          "(give NStepLossOptions.weights or leave the channel out)");
     }
   }
 

@@ -305,8 +305,7 @@ void ParseNStep(const Section& s, const models::StateSpaceModel& m, NStepLossOpt
   }
   const std::map<std::string, double> weights = ParseWeights(s, "weights", states, "a model state");
   if (!weights.empty()) {
-    // One weight per scored channel; the channels not given keep 1 / std, filled in by the caller
-    // (which has the data): marked by 0 here.
+    // One weight per scored channel; 0 for the channels not given (1 / std, NStepLossOptions).
     std::vector<int> scored = options->channels;
     if (scored.empty()) {
       for (int i = 0; i < m.NumStates(); ++i) scored.push_back(i);

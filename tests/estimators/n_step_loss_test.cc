@@ -82,6 +82,21 @@ TEST(NStepLoss, CostIsTheNStepNrmsOfTheMetric) {
   EXPECT_EQ(problem.num_scored, static_cast<long>(eta.starts.size()) * 30 * 2);
 }
 
+TEST(NStepLoss, ZeroWeightsTakeTheDefault) {
+  const Record rec = Simulated(300, 1e-3, kSeed);
+  NStepLossOptions options;
+  options.steps = 20;
+  const models::StateSpaceModel model = DriveModel(kStart);
+  const NStepLossProblem defaults = BuildNStepLoss(model, {rec.experiment}, {rec.states}, options);
+  options.weights = Eigen::Vector2d(0.0, 5.0);
+  const NStepLossProblem mixed = BuildNStepLoss(model, {rec.experiment}, {rec.states}, options);
+  EXPECT_EQ(mixed.weights[0], defaults.weights[0]);  // 1 / std of q
+  EXPECT_EQ(mixed.weights[1], 5.0);
+  options.weights = Eigen::Vector2d(-1.0, 5.0);
+  EXPECT_THROW(BuildNStepLoss(model, {rec.experiment}, {rec.states}, options),
+               std::invalid_argument);
+}
+
 TEST(NStepLoss, JacobianMatchesCentralDifferences) {
   const Record rec = Simulated(200, 1e-3, kSeed);
   NStepLossOptions options;

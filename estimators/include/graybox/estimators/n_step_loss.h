@@ -54,8 +54,9 @@ struct NStepLossOptions {
   /// Scored state columns (0-based, distinct); empty scores every state. Seed 000 scores the
   /// positions and velocities of all six joints.
   std::vector<int> channels;
-  /// One weight per scored channel; empty means 1 / std of each scored measured-state channel
-  /// over all experiments (the normalisation of eta_N).
+  /// One weight per scored channel (>= 0), an entry 0 meaning the default; empty means the
+  /// default for every channel: 1 / std of the scored measured-state channel over all experiments
+  /// (the normalisation of eta_N).
   Eigen::VectorXd weights;
   /// The integrator of every window (RK4 with substeps, or CVODES for stiff models).
   IntegratorOptions integrator;

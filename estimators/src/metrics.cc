@@ -37,49 +37,68 @@ void CheckPair(const std::string& function, const Eigen::MatrixXd& y,
   }
 }
 
-// Sums needed by every metric of one channel.
-struct Sums {
-  double n = 0.0;
-  double sse = 0.0;        // sum e^2
-  double sae = 0.0;        // sum |e|
-  double sum_e = 0.0;      // sum e
-  double sst = 0.0;        // sum (y - ybar)^2
-  double sum_abs_y = 0.0;  // sum |y|
-  double sum_y2 = 0.0;     // sum y^2
+// Statistics of one channel, as means: the error terms over the scored rows, the spread and
+// magnitude of y over the reference rows (metrics.h, "Scoring part of a record").
+struct Stats {
+  double mse = 0.0;         // mean e^2 over the scored rows
+  double mae = 0.0;         // mean |e|
+  double mean_e = 0.0;      // mean e
+  double var_y = 0.0;       // population variance of y over the reference rows
+  double mean_abs_y = 0.0;  // mean |y|
+  double mean_y2 = 0.0;     // mean y^2
 };
 
-Sums ChannelSums(const Eigen::MatrixXd& y, const Eigen::MatrixXd& y_hat, Eigen::Index j) {
-  Sums s;
-  const Eigen::Index n = y.rows();
-  s.n = static_cast<double>(n);
-  const double mean = y.col(j).mean();
-  for (Eigen::Index k = 0; k < n; ++k) {
+// rows: the scored rows; reference: the rows defining the normalisation (both non-empty).
+Stats ChannelStats(const Eigen::MatrixXd& y, const Eigen::MatrixXd& y_hat, Eigen::Index j,
+                   const std::vector<Eigen::Index>& rows,
+                   const std::vector<Eigen::Index>& reference) {
+  Stats s;
+  for (Eigen::Index k : rows) {
     const double e = y(k, j) - y_hat(k, j);
-    const double d = y(k, j) - mean;
-    s.sse += e * e;
-    s.sae += std::abs(e);
-    s.sum_e += e;
-    s.sst += d * d;
-    s.sum_abs_y += std::abs(y(k, j));
-    s.sum_y2 += y(k, j) * y(k, j);
+    s.mse += e * e;
+    s.mae += std::abs(e);
+    s.mean_e += e;
   }
+  const double n = static_cast<double>(rows.size());
+  s.mse /= n;
+  s.mae /= n;
+  s.mean_e /= n;
+  double mean_y = 0.0;
+  for (Eigen::Index k : reference) mean_y += y(k, j);
+  const double n_ref = static_cast<double>(reference.size());
+  mean_y /= n_ref;
+  for (Eigen::Index k : reference) {
+    const double d = y(k, j) - mean_y;
+    s.var_y += d * d;
+    s.mean_abs_y += std::abs(y(k, j));
+    s.mean_y2 += y(k, j) * y(k, j);
+  }
+  s.var_y /= n_ref;
+  s.mean_abs_y /= n_ref;
+  s.mean_y2 /= n_ref;
   return s;
+}
+
+std::vector<Eigen::Index> AllRows(Eigen::Index n) {
+  std::vector<Eigen::Index> rows(static_cast<std::size_t>(n));
+  for (Eigen::Index k = 0; k < n; ++k) rows[static_cast<std::size_t>(k)] = k;
+  return rows;
 }
 
 double Ratio(double num, double den) { return den > 0.0 ? num / den : kNaN; }
 
-ChannelMetrics FromSums(const Sums& s) {
+ChannelMetrics FromStats(const Stats& s) {
   ChannelMetrics m;
-  m.rmse = std::sqrt(s.sse / s.n);   // (3-8)
-  m.mae = s.sae / s.n;               // (3-9)
-  m.r2 = 1.0 - Ratio(s.sse, s.sst);  // (3-10)
-  const double var_e = s.sse / s.n - (s.sum_e / s.n) * (s.sum_e / s.n);
-  m.vaf_percent = 100.0 * (1.0 - Ratio(std::max(var_e, 0.0), s.sst / s.n));  // (3-11)
-  m.fit_percent = 100.0 * (1.0 - std::sqrt(Ratio(s.sse, s.sst)));            // (3-12)
-  m.nrmse = std::sqrt(Ratio(s.sse, s.sst));                                  // RMSE / std(y)
-  m.nmae = Ratio(s.sae, s.sum_abs_y);                                        // seed 001 (2)
-  m.nmse = Ratio(s.sse, s.sum_y2);                                           // seed 001 (3)
-  if (!std::isfinite(s.sse) || !std::isfinite(s.sae)) {
+  m.rmse = std::sqrt(s.mse);           // (3-8)
+  m.mae = s.mae;                       // (3-9)
+  m.r2 = 1.0 - Ratio(s.mse, s.var_y);  // (3-10)
+  const double var_e = s.mse - s.mean_e * s.mean_e;
+  m.vaf_percent = 100.0 * (1.0 - Ratio(std::max(var_e, 0.0), s.var_y));  // (3-11)
+  m.fit_percent = 100.0 * (1.0 - std::sqrt(Ratio(s.mse, s.var_y)));      // (3-12)
+  m.nrmse = std::sqrt(Ratio(s.mse, s.var_y));                            // RMSE / std(y)
+  m.nmae = Ratio(s.mae, s.mean_abs_y);                                   // seed 001 (2)
+  m.nmse = Ratio(s.mse, s.mean_y2);                                      // seed 001 (3)
+  if (!std::isfinite(s.mse) || !std::isfinite(s.mae)) {
     // NaN or Inf in the prediction: every metric of the channel is undefined.
     m.rmse = m.mae = m.r2 = m.vaf_percent = m.fit_percent = m.nrmse = m.nmae = m.nmse = kNaN;
   }
@@ -90,8 +109,11 @@ template <typename Field>
 Eigen::VectorXd PerChannel(const char* function, const Eigen::MatrixXd& y,
                            const Eigen::MatrixXd& y_hat, Field field) {
   CheckPair(function, y, y_hat);
+  const std::vector<Eigen::Index> rows = AllRows(y.rows());
   Eigen::VectorXd out(y.cols());
-  for (Eigen::Index j = 0; j < y.cols(); ++j) out(j) = field(FromSums(ChannelSums(y, y_hat, j)));
+  for (Eigen::Index j = 0; j < y.cols(); ++j) {
+    out(j) = field(FromStats(ChannelStats(y, y_hat, j, rows, rows)));
+  }
   return out;
 }
 
@@ -153,21 +175,51 @@ MetricReport ComputeMetrics(const Eigen::MatrixXd& y, const Eigen::MatrixXd& y_h
                                  std::to_string(labels->size()));
     }
   }
-  const Eigen::Index n = y.rows() - options.skip_samples;
-  const Eigen::MatrixXd yk = y.bottomRows(n);
-  const Eigen::MatrixXd yhk = y_hat.bottomRows(n);
-  CheckPair("ComputeMetrics", yk, yhk);
+  CheckPair("ComputeMetrics", y.bottomRows(y.rows() - options.skip_samples),
+            y_hat.bottomRows(y.rows() - options.skip_samples));
+  const Eigen::Index rows = y.rows();
+  if (!options.mask.empty() && static_cast<Eigen::Index>(options.mask.size()) != rows) {
+    Fail("ComputeMetrics", "expected a mask of " + std::to_string(rows) +
+                               " entries (one per row of y), got " +
+                               std::to_string(options.mask.size()));
+  }
+  const Eigen::Index window_end = options.window_end < 0 ? rows : options.window_end;
+  if (options.window_begin < 0 || options.window_begin >= window_end || window_end > rows ||
+      options.window_end < -1) {
+    Fail("ComputeMetrics", "expected a window 0 <= window_begin < window_end <= " +
+                               std::to_string(rows) + " (the number of rows; window_end = -1 " +
+                               "for the end), got [" + std::to_string(options.window_begin) + ", " +
+                               std::to_string(options.window_end) + ")");
+  }
+  // Reference rows: the kept record; scored rows: those the window and the mask admit too.
+  std::vector<Eigen::Index> reference, scored;
+  for (Eigen::Index k = options.skip_samples; k < rows; ++k) {
+    reference.push_back(k);
+    const bool in_window = k >= options.window_begin && k < window_end;
+    const bool in_mask = options.mask.empty() || options.mask[static_cast<std::size_t>(k)];
+    if (in_window && in_mask) scored.push_back(k);
+  }
+  if (scored.empty()) {
+    Fail("ComputeMetrics",
+         "expected at least 1 scored row, got none (skip_samples " +
+             std::to_string(options.skip_samples) + ", window [" +
+             std::to_string(options.window_begin) + ", " + std::to_string(window_end) + "), " +
+             (options.mask.empty() ? std::string("no mask") : "a mask of " + std::to_string(rows)) +
+             ")");
+  }
+  if (options.normalization == MetricNormalization::kScoredSamples) reference = scored;
 
   MetricReport report;
-  report.samples = static_cast<int>(n);
+  report.samples = static_cast<int>(scored.size());
   report.skipped = options.skip_samples;
+  report.reference_samples = static_cast<int>(reference.size());
   ChannelMetrics& all = report.overall;
   all = ChannelMetrics{};
   all.name = "overall";
   bool same_unit = !options.channel_units.empty();
   double rmse_sq = 0.0;
   for (Eigen::Index j = 0; j < m; ++j) {
-    ChannelMetrics c = FromSums(ChannelSums(yk, yhk, j));
+    ChannelMetrics c = FromStats(ChannelStats(y, y_hat, j, scored, reference));
     const size_t sj = static_cast<size_t>(j);
     c.name = options.channel_names.empty() ? "y" + std::to_string(j) : options.channel_names[sj];
     c.unit = options.channel_units.empty() ? "" : options.channel_units[sj];
@@ -212,6 +264,7 @@ std::string MetricReport::BriefReport() const {
   os << channels.size() << (channels.size() == 1 ? " channel, " : " channels, ") << samples
      << " samples";
   if (skipped > 0) os << " (" << skipped << " skipped)";
+  if (reference_samples != samples) os << " normalised over " << reference_samples;
   os << ": FIT " << Num(overall.fit_percent, "%.2f") << " %, R^2 " << Num(overall.r2, "%.5f")
      << ", NRMSE " << Num(overall.nrmse, "%.4f") << ", VAF " << Num(overall.vaf_percent, "%.2f")
      << " %";
@@ -245,11 +298,12 @@ namespace {
 
 struct NStepSetup {
   std::vector<int> channels;
+  std::vector<std::string> names;  // of the scored channels, or empty
   Eigen::VectorXd sigma;
 };
 
 NStepSetup PrepareNStep(const char* function, const Eigen::MatrixXd& x,
-                        const std::vector<int>& channels) {
+                        const std::vector<int>& channels, const std::vector<std::string>& names) {
   if (x.rows() < 2 || x.cols() < 1) {
     Fail(function,
          "expected a state trajectory with at least 2 samples and 1 channel, got " + Shape(x));
@@ -267,13 +321,26 @@ NStepSetup PrepareNStep(const char* function, const Eigen::MatrixXd& x,
   if (channels.empty()) {
     for (int j = 0; j < static_cast<int>(x.cols()); ++j) s.channels.push_back(j);
   } else {
-    for (int c : channels) {
+    for (std::size_t i = 0; i < channels.size(); ++i) {
+      const int c = channels[i];
       if (c < 0 || c >= x.cols()) {
         Fail(function, "expected channel indices in [0, " + std::to_string(x.cols()) + "), got " +
                            std::to_string(c));
       }
+      if (std::find(channels.begin(), channels.begin() + static_cast<std::ptrdiff_t>(i), c) !=
+          channels.begin() + static_cast<std::ptrdiff_t>(i)) {
+        Fail(function, "expected distinct channel indices, got " + std::to_string(c) + " twice");
+      }
     }
     s.channels = channels;
+  }
+  if (!names.empty()) {
+    if (static_cast<Eigen::Index>(names.size()) != x.cols()) {
+      Fail(function, "expected " + std::to_string(x.cols()) +
+                         " channel names (one per column of x) or none, got " +
+                         std::to_string(names.size()));
+    }
+    for (int c : s.channels) s.names.push_back(names[static_cast<std::size_t>(c)]);
   }
   s.sigma.resize(static_cast<Eigen::Index>(s.channels.size()));
   for (size_t i = 0; i < s.channels.size(); ++i) {
@@ -306,6 +373,7 @@ NStepResult Finish(const NStepSetup& setup, const NStepAccumulator& acc,
                    const std::vector<int>& starts, int steps) {
   NStepResult r;
   r.channels = setup.channels;
+  r.channel_names = setup.names;
   r.sigma = setup.sigma;
   r.starts = starts;
   r.steps = steps;
@@ -328,17 +396,29 @@ void CheckPrediction(const char* function, const Eigen::MatrixXd& p, int start, 
 
 }  // namespace
 
+double NStepResult::NrmsAtStep(int k) const {
+  if (k < 1 || k > step_nrms.size()) {
+    throw std::out_of_range("NStepResult::NrmsAtStep: expected 1 <= k <= " +
+                            std::to_string(step_nrms.size()) + ", got " + std::to_string(k));
+  }
+  return step_nrms(k - 1);
+}
+
 std::string NStepResult::BriefReport() const {
   std::ostringstream os;
-  os << steps << "-step NRMS " << Num(nrms, "%.6g") << " over " << starts.size() << " starts, "
-     << channels.size() << (channels.size() == 1 ? " channel" : " channels");
+  os << steps << "-step NRMS " << Num(nrms, "%.6g");
+  if (steps > 0 && step_nrms.size() == steps) {
+    os << " (NRMS at step " << steps << ": " << Num(step_nrms(steps - 1), "%.6g") << ")";
+  }
+  os << " over " << starts.size() << " starts, " << channels.size()
+     << (channels.size() == 1 ? " channel" : " channels");
   return os.str();
 }
 
 NStepResult NStepNrms(const Eigen::MatrixXd& x, const SimulateFromState& simulate,
                       const NStepOptions& options) {
   const char* function = "NStepNrms";
-  const NStepSetup setup = PrepareNStep(function, x, options.channels);
+  const NStepSetup setup = PrepareNStep(function, x, options.channels, options.names);
   const int n = static_cast<int>(x.rows());
   const int steps = options.steps;
   if (steps < 1 || steps > n - 1) {
@@ -372,9 +452,9 @@ NStepResult NStepNrms(const Eigen::MatrixXd& x, const SimulateFromState& simulat
 
 NStepResult NStepNrms(const Eigen::MatrixXd& x, const std::vector<int>& starts,
                       const std::vector<Eigen::MatrixXd>& predictions,
-                      const std::vector<int>& channels) {
+                      const std::vector<int>& channels, const std::vector<std::string>& names) {
   const char* function = "NStepNrms";
-  const NStepSetup setup = PrepareNStep(function, x, channels);
+  const NStepSetup setup = PrepareNStep(function, x, channels, names);
   if (starts.size() != predictions.size()) {
     Fail(function, "expected one prediction per start (" + std::to_string(starts.size()) +
                        "), got " + std::to_string(predictions.size()));

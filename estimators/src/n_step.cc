@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "graybox/estimators/integrators.h"
 
@@ -44,6 +46,24 @@ NStepResult NStepNrmsSimulated(const models::StateSpaceModel& model, const Eigen
                                 " steps, got [" + std::to_string(options.scoring.first_start) +
                                 ", " + std::to_string(last) + "]");
   }
+  for (std::size_t i = 0; i < options.scoring.channels.size(); ++i) {
+    const int c = options.scoring.channels[i];
+    const auto before = options.scoring.channels.begin() + static_cast<std::ptrdiff_t>(i);
+    if (c < 0 || c >= nx || std::find(options.scoring.channels.begin(), before, c) != before) {
+      throw std::invalid_argument("NStepNrmsSimulated: expected distinct state indices in [0, " +
+                                  std::to_string(nx) + ") in scoring.channels, got " +
+                                  std::to_string(c) + " at position " + std::to_string(i));
+    }
+  }
+  std::vector<std::string> names = options.scoring.names;
+  if (!names.empty() && static_cast<int>(names.size()) != nx) {
+    throw std::invalid_argument("NStepNrmsSimulated: expected " + std::to_string(nx) +
+                                " names in scoring.names (one per state) or none, got " +
+                                std::to_string(names.size()));
+  }
+  if (names.empty()) {
+    for (const auto& state : model.states) names.push_back(state.name);
+  }
   std::vector<int> starts;
   for (int s = options.scoring.first_start; s <= last; s += options.scoring.stride) {
     starts.push_back(s);
@@ -72,7 +92,7 @@ NStepResult NStepNrmsSimulated(const models::StateSpaceModel& model, const Eigen
       try {
         chunk_results[c] =
             NStepNrms(x, std::vector<int>(starts.begin() + begin, starts.begin() + begin + m),
-                      predictions, options.scoring.channels);
+                      predictions, options.scoring.channels, names);
       } catch (const std::exception& e) {
         errors[c] = e.what();
       }

@@ -454,14 +454,70 @@ void ParseEstimation(const Section& root, Problem* problem) {
   }
 }
 
-void ParseMetrics(const Section& top, Problem* problem) {
-  if (auto m = top.Sub("metrics")) {
-    m->Allow({"n_step", "n_step_stride"});
-    problem->metrics.where = m->Where();
-    problem->metrics.n_step = static_cast<int>(m->Integer("n_step", 0, 1000000).value_or(0));
-    problem->metrics.n_step_stride =
-        static_cast<int>(m->Integer("n_step_stride", 1, 1000000).value_or(1));
+// The default states of the N-step NRMS: those with a model output of the same name, else all.
+void DefaultNStepChannels(const models::StateSpaceModel& m, MetricsSpec* spec) {
+  for (int i = 0; i < m.NumStates(); ++i) {
+    const std::string& name = m.states[static_cast<std::size_t>(i)].name;
+    const bool measured = std::any_of(m.outputs.begin(), m.outputs.end(),
+                                      [&](const auto& output) { return output.name == name; });
+    if (measured) spec->n_step_channel_indices.push_back(i);
   }
+  if (spec->n_step_channel_indices.empty()) {
+    for (int i = 0; i < m.NumStates(); ++i) spec->n_step_channel_indices.push_back(i);
+  }
+  for (int i : spec->n_step_channel_indices) {
+    spec->n_step_channels.push_back(m.states[static_cast<std::size_t>(i)].name);
+  }
+}
+
+// `n_step_channels`: state names, each located at its own array element in messages.
+void ParseNStepChannels(const Section& s, const models::StateSpaceModel& m, MetricsSpec* spec) {
+  const std::string key = "n_step_channels";
+  const std::vector<std::string> names = s.Strings(key);  // checks the types
+  if (names.empty()) {
+    s.Fail(key, "'" + key + "': expected at least one model state, got an empty list");
+  }
+  std::vector<std::string> states;
+  for (const auto& x : m.states) states.push_back(x.name);
+  const toml::array& elements = *s.Get(key)->as_array();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::string& name = names[i];
+    const SourceLocation where = s.Location(elements.get(i)->source());
+    const auto it = std::find(states.begin(), states.end(), name);
+    if (it == states.end()) {
+      throw ProblemFileError(where, "'" + key + "[" + std::to_string(i) + "]': '" + name +
+                                        "' is not a model state" + Suggestion(name, states) +
+                                        " (model states: " + Quoted(states) + ")");
+    }
+    const int index = static_cast<int>(it - states.begin());
+    if (std::find(spec->n_step_channel_indices.begin(), spec->n_step_channel_indices.end(),
+                  index) != spec->n_step_channel_indices.end()) {
+      throw ProblemFileError(where, "'" + key + "[" + std::to_string(i) + "]': expected distinct " +
+                                        "states, got '" + name + "' twice");
+    }
+    spec->n_step_channel_indices.push_back(index);
+    spec->n_step_channels.push_back(name);
+  }
+  spec->n_step_channels_given = true;
+}
+
+void ParseMetrics(const Section& top, Problem* problem) {
+  MetricsSpec& spec = problem->metrics;
+  if (auto m = top.Sub("metrics")) {
+    m->Allow({"n_step", "n_step_stride", "n_step_channels"});
+    spec.where = m->Where();
+    spec.n_step = static_cast<int>(m->Integer("n_step", 0, 1000000).value_or(0));
+    spec.n_step_stride = static_cast<int>(m->Integer("n_step_stride", 1, 1000000).value_or(1));
+    if (m->Has("n_step_channels")) {
+      if (spec.n_step == 0) {
+        m->Fail("n_step_channels",
+                "'n_step_channels' selects the states of the N-step NRMS, which is off: expected "
+                "'n_step' > 0 in [metrics], got n_step = 0");
+      }
+      ParseNStepChannels(*m, problem->built, &spec);
+    }
+  }
+  if (!spec.n_step_channels_given) DefaultNStepChannels(problem->built, &spec);
 }
 
 }  // namespace graybox::estimators::internal

@@ -6,12 +6,16 @@
 // Sample alignment (from roblue's closed-loop simulator, confirmed by the residuals below): y[k] is
 // the state at t_k and u[k] is held constant (zero-order hold) over [t_k, t_{k+1}], so
 //     y[k+1] = Phi_dt(y[k], u[k]),   Phi = one classical RK4 step of KukaForwardDynamics.
-// The 150-step NRMS starts a simulation at every sample s of a split (s = 0 .. N-151), runs 150
-// steps with the recorded u, and compares positions:
-//     NRMS_150 = sqrt( mean over starts s and joints j of ((q_sim - q_rec)[s+150, j] / std_j)^2 ),
-// std_j the (N-1)-normalised standard deviation of q_j over the split. (roblue's own
-// "150-step NRMS" reports the same mean of squares without the square root, and drops the first
-// and last 1350 starts.)
+// From every sample s of a split (s = 0 .. N-151) a simulation runs 150 steps with the recorded
+// u; the positions are compared, each joint normalised by std_j, the population standard
+// deviation of q_j over the split (estimators/analysis/metrics.h). Two figures come out:
+//   - the 150-step NRMS (seed 000 eq. 7: the mean over the steps k = 1..150)
+//       NRMS_150 = sqrt( mean over s, k = 1..150, j of ((q_sim - q_rec)[s+k, j] / std_j)^2 );
+//   - the NRMS at step 150 (step 150 alone)
+//       sqrt( mean over s, j of ((q_sim - q_rec)[s+150, j] / std_j)^2 ).
+// roblue's own "150-step NRMS" (roblue.py plot_n_step_nrms, the bestmodel_*_150_step_nrms
+// column) is the NRMS at step 150 squared (no square root; (N-1)-normalised std; in its case 3
+// the first and last stiction_pad starts dropped), not the mean over steps of eq. 7.
 #include <matio.h>
 
 #include <cmath>
@@ -36,7 +40,9 @@ constexpr double kDt = 0.004;  // [s]
 constexpr int kNumSamples = 15000;
 constexpr int kHorizon = 150;
 // The acceptance threshold of the task: the model must reproduce the simulated data to within
-// 1e-5 of the position spread over 150 steps. Measured: 3.8e-7 (float32 storage floor).
+// 1e-5 of the position spread over 150 steps, both as the 150-step NRMS (mean over the horizon)
+// and at its end (NRMS at step 150). Measured: 2.6e-7 and 3.8e-7 (float32 storage floor;
+// estimators' NStepNrmsSimulated gives the same 2.58871e-7 and 3.77338e-7).
 constexpr double kAcceptanceNrms = 1e-5;
 // One-step residual bounds. The data are float32: a value of magnitude ~1 is rounded by up to
 // 6e-8, an RMS of ~2e-8. Measured with the roblue model: 1.35e-8 rad (q) and 7.1e-9 rad/s (qd).
@@ -189,15 +195,15 @@ TEST_F(RoblueData, AlternativeConventionsAreRejected) {
   }
 }
 
-TEST_F(RoblueData, HundredFiftyStepNrmsOnTheTestSplit) {
+TEST_F(RoblueData, HundredFiftyStepNrmsAndNrmsAtStep150OnTheTestSplit) {
   const Split& s = TestSplit();
   const KukaKr300Model& model = DefaultKukaKr300Model();
   Eigen::VectorXd sd(6);
   for (int j = 0; j < 6; ++j) {
     const Eigen::ArrayXd c = s.y.col(j).array();
-    sd[j] = std::sqrt((c - c.mean()).square().sum() / (kNumSamples - 1));
+    sd[j] = std::sqrt((c - c.mean()).square().mean());  // population, as metrics.h
   }
-  double sum_sq = 0.0, max_abs = 0.0;
+  double sum_sq_all_steps = 0.0, sum_sq_at_step_n = 0.0, max_abs = 0.0;
   int starts = 0;
   for (int start = 0; start + kHorizon < kNumSamples; ++start) {
     Vec q = Position(s, start), qd = Velocity(s, start);
@@ -206,18 +212,22 @@ TEST_F(RoblueData, HundredFiftyStepNrmsOnTheTestSplit) {
       testing::Rk4Step(
           [&](const Vec& x, const Vec& v) { return KukaForwardDynamics<double>(model, x, v, tau); },
           kDt, &q, &qd);
+      const Eigen::VectorXd e = (q - Position(s, k + 1)).cwiseQuotient(sd);
+      sum_sq_all_steps += e.squaredNorm();
+      max_abs = std::max(max_abs, e.cwiseAbs().maxCoeff());
+      if (k + 1 == start + kHorizon) sum_sq_at_step_n += e.squaredNorm();
     }
-    const Eigen::VectorXd e = (q - Position(s, start + kHorizon)).cwiseQuotient(sd);
-    sum_sq += e.squaredNorm();
-    max_abs = std::max(max_abs, e.cwiseAbs().maxCoeff());
     ++starts;
   }
-  const double mean_sq = sum_sq / (6.0 * starts);
-  const double nrms = std::sqrt(mean_sq);
-  std::cout << "[ nrms     ] test split, " << starts << " starts: 150-step NRMS " << nrms
-            << " (mean square, roblue's number: " << mean_sq << "; worst normalised error "
+  const double n_step_nrms = std::sqrt(sum_sq_all_steps / (6.0 * kHorizon * starts));
+  const double mean_sq_at_step_n = sum_sq_at_step_n / (6.0 * starts);
+  const double nrms_at_step_n = std::sqrt(mean_sq_at_step_n);
+  std::cout << "[ nrms     ] test split, " << starts << " starts: 150-step NRMS " << n_step_nrms
+            << ", NRMS at step 150 " << nrms_at_step_n
+            << " (squared, roblue's number: " << mean_sq_at_step_n << "; worst normalised error "
             << max_abs << ")\n";
-  EXPECT_LT(nrms, kAcceptanceNrms);
+  EXPECT_LT(n_step_nrms, kAcceptanceNrms);
+  EXPECT_LT(nrms_at_step_n, kAcceptanceNrms);
 }
 
 }  // namespace

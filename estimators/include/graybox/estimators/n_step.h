@@ -22,7 +22,11 @@
 namespace graybox::estimators {
 
 struct NStepSimulationOptions {
-  NStepOptions scoring;   // horizon, starts, scored channels
+  /// Horizon, starts and the scored channels: scoring.channels are state indices of the model
+  /// (empty scores every state; seed 000 scores the positions, and a problem file defaults to
+  /// the measured states, MetricsSpec::n_step_channels). scoring.names defaults to the model's
+  /// state names, so NStepResult::channel_names names the scored states.
+  NStepOptions scoring;
   FixedStepOptions step;  // the one-step map: scheme, substeps per sample, Newton iterations
   int num_threads = 2;    // 0 means std::thread::hardware_concurrency()
   int chunk = 1024;       // starts simulated together
@@ -31,7 +35,9 @@ struct NStepSimulationOptions {
 };
 
 /// x: N x nx measured states (row k at sample k), u: N x nu inputs (u_k held over the sample),
-/// p: model parameters. Throws std::invalid_argument on size mismatches or bad options.
+/// p: model parameters. Every state is simulated; only options.scoring.channels are scored.
+/// Throws std::invalid_argument on size mismatches, bad options, or channel indices out of
+/// range or repeated (checked before anything is simulated).
 NStepResult NStepNrmsSimulated(const models::StateSpaceModel& model, const Eigen::MatrixXd& x,
                                const Eigen::MatrixXd& u, const Eigen::VectorXd& p, double dt,
                                const NStepSimulationOptions& options = {});

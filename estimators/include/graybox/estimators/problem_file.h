@@ -216,11 +216,26 @@ struct EstimationSpec {
 
 /// [metrics]: evaluations beyond the whole-split simulation metrics.
 struct MetricsSpec {
-  /// N of the N-step-ahead NRMS (seed 000 eq. 7) reported for every split: from the measured
-  /// state at every start, N samples simulated with the `step` map and compared with the
-  /// measured states. 0 = off. Needs the states from the data (as `node_guess = "data"`).
+  /// N of the N-step-ahead NRMS (seed 000 eq. 7: the mean over steps 1..N, analysis/metrics.h)
+  /// reported for every split: from the measured state at every start, N samples simulated with
+  /// the `step` map and compared with the measured states. 0 = off. Needs the states from the
+  /// data (as `node_guess = "data"`).
   int n_step = 0;
   int n_step_stride = 1;  // every stride-th start
+  /// The states the N-step NRMS scores (key `n_step_channels`: model state names, distinct, in
+  /// the file's order; an unknown name is an error with the place and a suggestion). Always
+  /// filled by the parser, also when n_step = 0. Default: the states that are measured outputs,
+  /// a state being measured when a model output has the same name ("load.q" of a model with
+  /// outputs = ["load.q"]), in state order. When no state is a measured output (every output is
+  /// computed from the states, e.g. a sensor block), the default is every state: the states are
+  /// then all derived from the data alike and none is closer to the measurement than another.
+  /// Seed 000 scores the positions; with velocities measured as well they are scored by default
+  /// and usually dominate the figure, so list the positions to reproduce eq. 7.
+  std::vector<std::string> n_step_channels;
+  /// The same states as indices into Problem::built.states (what NStepOptions::channels takes).
+  std::vector<int> n_step_channel_indices;
+  /// True when `n_step_channels` was given in the file, false when it is the default.
+  bool n_step_channels_given = false;
   SourceLocation where;
 };
 

@@ -240,9 +240,6 @@ void ParseModel(const Section& root, Problem* problem) {
       b.Fail("instance", e.what());
     }
     problem->blocks.emplace_back(instance, type);
-    for (const auto& par : block->info().parameters) {
-      if (models::IsFixedByDefault(type, par.name)) problem->model.Fix(instance + "." + par.name);
-    }
   }
   const std::vector<std::string> outputs = m.Strings("outputs");
   if (outputs.empty()) m.Fail("", "missing key 'outputs': expected the measured output signals");

@@ -14,6 +14,28 @@ std::vector<double> Block::NominalParameters() const {
   return p;
 }
 
+const char* SignalRoleName(SignalRole role) {
+  switch (role) {
+    case SignalRole::kNone:
+      return "none";
+    case SignalRole::kPosition:
+      return "position";
+    case SignalRole::kVelocity:
+      return "velocity";
+    case SignalRole::kAcceleration:
+      return "acceleration";
+    case SignalRole::kForce:
+      return "force";
+    case SignalRole::kPressure:
+      return "pressure";
+    case SignalRole::kVoltage:
+      return "voltage";
+    case SignalRole::kCurrent:
+      return "current";
+  }
+  return "none";
+}
+
 BlockRegistry& BlockRegistry::Global() {
   static BlockRegistry* registry = [] {
     auto* r = new BlockRegistry();

@@ -30,19 +30,22 @@ class TwoMassDrive : public BlockBase<TwoMassDrive> {
         "Elastic joint as a two-mass system: motor inertia J and load inertia I coupled by a "
         "spring Ke (and damper d), optionally through a smooth backlash dead zone.";
     info_.reference = "seed 002 eq. 6-1 (eSEA constants J, I, Ke of seed 002 Sec. 6.1)";
-    info_.states = {{"q_m", "rad", "motor angle", -1.0, 1.0},
-                    {"qd_m", "rad/s", "motor speed", -20.0, 20.0},
-                    {"q_l", "rad", "load (link) angle", -1.0, 1.0},
-                    {"qd_l", "rad/s", "load (link) speed", -20.0, 20.0}};
+    constexpr SignalRole kPosition = SignalRole::kPosition, kVelocity = SignalRole::kVelocity,
+                         kForce = SignalRole::kForce;
+    info_.states = {{"q_m", "rad", "motor angle", -1.0, 1.0, kPosition},
+                    {"qd_m", "rad/s", "motor speed", -20.0, 20.0, kVelocity},
+                    {"q_l", "rad", "load (link) angle", -1.0, 1.0, kPosition},
+                    {"qd_l", "rad/s", "load (link) speed", -20.0, 20.0, kVelocity}};
     info_.inputs = {
-        {"tau_m", "N m", "net motor torque (motor torque minus motor-side friction)", -0.4, 0.4},
-        {"tau_ext", "N m", "external torque on the load, positive along q_l", -0.4, 0.4}};
-    info_.outputs = {
-        {"q_m", "rad", "motor angle", -1.0, 1.0},
-        {"qd_m", "rad/s", "motor speed", -20.0, 20.0},
-        {"q_l", "rad", "load angle", -1.0, 1.0},
-        {"qd_l", "rad/s", "load speed", -20.0, 20.0},
-        {"tau_s", "N m", "torque transmitted by the joint (spring plus damper)", -0.4, 0.4}};
+        {"tau_m", "N m", "net motor torque (motor torque minus motor-side friction)", -0.4, 0.4,
+         kForce},
+        {"tau_ext", "N m", "external torque on the load, positive along q_l", -0.4, 0.4, kForce}};
+    info_.outputs = {{"q_m", "rad", "motor angle", -1.0, 1.0, kPosition},
+                     {"qd_m", "rad/s", "motor speed", -20.0, 20.0, kVelocity},
+                     {"q_l", "rad", "load angle", -1.0, 1.0, kPosition},
+                     {"qd_l", "rad/s", "load speed", -20.0, 20.0, kVelocity},
+                     {"tau_s", "N m", "torque transmitted by the joint (spring plus damper)", -0.4,
+                      0.4, kForce}};
     info_.parameters = {
         MakeParameter("J", "kg m^2", "motor-side inertia", 1e-4, 1e-9, kInf),
         MakeParameter("I", "kg m^2", "load-side (link) inertia", 1.4e-3, 1e-9, kInf),
@@ -129,11 +132,13 @@ class GearDrive : public BlockBase<GearDrive> {
         "transmission layer of seed 001 Sec. 2.2 and eq. 9; KUKA gear ratios and rotor inertias "
         "of joint " +
         std::to_string(joint) + " (data/roblue_elabee/SOURCE.md)";
-    info_.inputs = {{"tau_m", "N m", "motor (air-gap) torque", -20.0, 20.0},
-                    {"qd", "rad/s", "joint speed", -2.0, 2.0},
-                    {"qdd", "rad/s^2", "joint acceleration", -10.0, 10.0}};
-    info_.outputs = {{"tau", "N m", "torque delivered to the joint", -5000.0, 5000.0},
-                     {"qd_m", "rad/s", "motor speed", -500.0, 500.0}};
+    info_.inputs = {
+        {"tau_m", "N m", "motor (air-gap) torque", -20.0, 20.0, SignalRole::kForce},
+        {"qd", "rad/s", "joint speed", -2.0, 2.0, SignalRole::kVelocity},
+        {"qdd", "rad/s^2", "joint acceleration", -10.0, 10.0, SignalRole::kAcceleration}};
+    info_.outputs = {
+        {"tau", "N m", "torque delivered to the joint", -5000.0, 5000.0, SignalRole::kForce},
+        {"qd_m", "rad/s", "motor speed", -500.0, 500.0, SignalRole::kVelocity}};
     info_.parameters = {MakeParameter("N", "1", "gear ratio (motor angle / joint angle)",
                                       kKukaGearRatios[j], 1e-3, 1e5, 1.0),
                         MakeParameter("eta", "1", "gear efficiency", 1.0, 1e-3, 1.0, 1.0),
@@ -161,17 +166,20 @@ class DcMotorDrive : public BlockBase<DcMotorDrive> {
         "(J_os + N^2 J_rs) domega/dt = N Km i - (B_os + N^2 B_rs) omega - tau_load.";
     info_.reference =
         "seed 003 eq. 31-34 and Table 5; gear ratio from data/geared_dc_motor_ayankoso/SOURCE.md";
-    info_.states = {{"i", "A", "armature current", 0.0, 3.0},
-                    {"omega", "rad/s", "output shaft speed", 0.0, 35.0}};
-    if (angle_state_) info_.states.push_back({"theta", "rad", "output shaft angle", 0.0, 100.0});
-    info_.inputs = {{"u", "V", "armature voltage", 0.0, 12.0}};
+    using R = SignalRole;
+    const SignalInfo current{"i", "A", "armature current", 0.0, 3.0, R::kCurrent};
+    const SignalInfo speed{"omega", "rad/s", "output shaft speed", 0.0, 35.0, R::kVelocity};
+    const SignalInfo angle{"theta", "rad", "output shaft angle", 0.0, 100.0, R::kPosition};
+    info_.states = {current, speed};
+    if (angle_state_) info_.states.push_back(angle);
+    info_.inputs = {{"u", "V", "armature voltage", 0.0, 12.0, R::kVoltage}};
     if (load_input_) {
-      info_.inputs.push_back(
-          {"tau_load", "N m", "load torque on the output shaft, opposing omega", -1.0, 1.0});
+      info_.inputs.push_back({"tau_load", "N m", "load torque on the output shaft, opposing omega",
+                              -1.0, 1.0, R::kForce});
     }
-    if (angle_state_) info_.outputs.push_back({"theta", "rad", "output shaft angle", 0.0, 100.0});
-    info_.outputs.push_back({"omega", "rad/s", "output shaft speed", 0.0, 35.0});
-    info_.outputs.push_back({"i", "A", "armature current", 0.0, 3.0});
+    if (angle_state_) info_.outputs.push_back(angle);
+    info_.outputs.push_back(speed);
+    info_.outputs.push_back(current);
     info_.parameters = {
         MakeParameter("L", "H", "armature inductance", 0.001, 1e-7, 10.0),
         MakeParameter("R", "Ohm", "armature resistance", 1.3798, 1e-4, 1e3),

@@ -24,11 +24,15 @@ constexpr double kMotorSpeed = 300.0;  // [rad/s]
 constexpr double kKukaSpeed = 2.0;  // [rad/s]
 
 SignalInfo Velocity(double max_speed) {
-  return {"qd", "rad/s", "relative velocity of the sliding pair", -max_speed, max_speed};
+  SignalInfo s{"qd", "rad/s", "relative velocity of the sliding pair", -max_speed, max_speed};
+  s.role = SignalRole::kVelocity;
+  return s;
 }
 SignalInfo Torque(double max_torque) {
-  return {"tau", "N m", "friction torque, same sign as the velocity (subtract it)", -max_torque,
-          max_torque};
+  SignalInfo s{"tau", "N m", "friction torque, same sign as the velocity (subtract it)",
+               -max_torque, max_torque};
+  s.role = SignalRole::kForce;
+  return s;
 }
 
 // ---- friction.viscous ---------------------------------------------------------------------------
@@ -261,11 +265,11 @@ class TorqueDependentFriction : public BlockBase<TorqueDependentFriction> {
         "sign(qd) (fc + ftau |tau_load|) while moving and decaying in time at standstill "
         "(continuous-time form of the Staubli model).";
     info_.reference = "seed 001 eq. 5 to 8 (k3 = fc, k4 = ftau, k5 = distance, k6 = time)";
-    info_.inputs = {
-        Velocity(kMotorSpeed),
-        {"tau_load", "N m",
-         "torque transmitted by the drive (seed 001 tau_jnt, in the frame of qd)", -10.0, 10.0}};
-    info_.states = {{"tau_d", "N m", "dry friction torque", -1.5, 1.5}};
+    info_.inputs = {Velocity(kMotorSpeed),
+                    {"tau_load", "N m",
+                     "torque transmitted by the drive (seed 001 tau_jnt, in the frame of qd)",
+                     -10.0, 10.0, SignalRole::kForce}};
+    info_.states = {{"tau_d", "N m", "dry friction torque", -1.5, 1.5, SignalRole::kForce}};
     info_.outputs = {Torque(1.5)};
     info_.parameters = {
         MakeParameter("fc", "N m", "load-independent dry friction (seed 001 k3)", 0.5, 0.0, kInf,
@@ -308,9 +312,9 @@ class RippleFriction : public BlockBase<RippleFriction> {
         "Position-dependent torque ripple (cogging, gear-mesh or bearing ripple) as a Fourier "
         "series tau = sum_k a_k cos(2 pi k q / P) + b_k sin(2 pi k q / P).";
     info_.reference = "Fourier series in position; seed 001 eq. 1 (hard-to-model residual effects)";
-    info_.inputs = {{"q", "rad", "position of the sliding pair", -kPi, kPi}};
-    info_.outputs = {
-        {"tau", "N m", "ripple torque (subtract it, like every friction torque)", -0.1, 0.1}};
+    info_.inputs = {{"q", "rad", "position of the sliding pair", -kPi, kPi, SignalRole::kPosition}};
+    info_.outputs = {{"tau", "N m", "ripple torque (subtract it, like every friction torque)", -0.1,
+                      0.1, SignalRole::kForce}};
     for (int k = 1; k <= harmonics_; ++k) {
       const std::string n = std::to_string(k);
       info_.parameters.push_back(MakeParameter("a" + n, "N m", "cosine amplitude of harmonic " + n,

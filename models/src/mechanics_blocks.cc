@@ -14,13 +14,6 @@
 
 namespace graybox::models {
 
-bool IsFixedByDefault(const std::string& block_type, const std::string& parameter) {
-  if (block_type == kCascadePController) {
-    return parameter == "kp" || parameter == "kv" || parameter == "limit";
-  }
-  return false;
-}
-
 namespace internal {
 namespace {
 
@@ -100,14 +93,14 @@ class MassBlock : public BlockBase<MassBlock> {
         rotational ? "Rigid body rotating about one axis: dq/dt = qd, dqd/dt = torque / inertia."
                    : "Rigid body sliding along one axis: dq/dt = qd, dqd/dt = force / mass.";
     info_.reference = "Newton's second law; EMPS load (data/emps/SOURCE.md, M = 95.1 kg)";
-    info_.states = {
-        {"q", a.position, rotational ? "angle of the body" : "position of the body", a.position_min,
-         a.position_max},
-        {"qd", a.velocity, rotational ? "angular velocity" : "velocity", -a.speed, a.speed}};
+    info_.states = {{"q", a.position, rotational ? "angle of the body" : "position of the body",
+                     a.position_min, a.position_max, SignalRole::kPosition},
+                    {"qd", a.velocity, rotational ? "angular velocity" : "velocity", -a.speed,
+                     a.speed, SignalRole::kVelocity}};
     info_.inputs = {{"force", a.force,
                      rotational ? "net torque on the body about the axis"
                                 : "net force on the body along the axis",
-                     -a.force_max, a.force_max}};
+                     -a.force_max, a.force_max, SignalRole::kForce}};
     info_.parameters = {Parameter("mass", a.mass,
                                   rotational ? "moment of inertia about the axis" : "moving mass",
                                   a.nominal_mass, 1e-9, kInf)};
@@ -133,14 +126,20 @@ class CascadePController : public BlockBase<CascadePController> {
         "Cascaded proportional position and velocity loops, nu = kp kv (qr - q) - kv qd, with a "
         "smooth saturation |nu| < limit.";
     info_.reference = "EMPS benchmark controller (data/emps/SOURCE.md; kp, kv and viradm = 10 V)";
-    info_.inputs = {{"qr", a.position, "position reference", a.position_min, a.position_max},
-                    {"q", a.position, "measured position", a.position_min, a.position_max},
-                    {"qd", a.velocity, "measured velocity", -a.speed, a.speed}};
-    info_.outputs = {{"nu", "V", "controller output (drive command)", -10.0, 10.0}};
+    // The reference is not a quantity of the axis (no role); the command is a voltage.
+    info_.inputs = {
+        {"qr", a.position, "position reference", a.position_min, a.position_max},
+        {"q", a.position, "measured position", a.position_min, a.position_max,
+         SignalRole::kPosition},
+        {"qd", a.velocity, "measured velocity", -a.speed, a.speed, SignalRole::kVelocity}};
+    info_.outputs = {
+        {"nu", "V", "controller output (drive command)", -10.0, 10.0, SignalRole::kVoltage}};
+    // Known settings of the EMPS controller, not unknowns of the plant (mechanics.h).
     info_.parameters = {
         Parameter("kp", "1/s", "position loop gain", 160.18, 0.0, kInf),
         Parameter("kv", "V s/" + a.position, "velocity loop gain", 243.45, 0.0, kInf),
         Parameter("limit", "V", "saturation level of the output", 10.0, 1e-6, kInf)};
+    for (ParameterInfo& par : info_.parameters) par.fixed_by_default = true;
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {

@@ -73,6 +73,52 @@ int StateSpaceModel::OutputIndex(const std::string& n) const {
   return IndexByName(
       outputs, n, [](const SignalInfo& s) { return s.name; }, "output", name);
 }
+int StateSpaceModel::SignalIndex(const std::string& n) const {
+  return IndexByName(
+      signals, n, [](const SignalDescription& s) { return s.info.name; }, "signal", name);
+}
+
+expr::Function StateSpaceModel::SignalFunction(const std::vector<std::string>& names) const {
+  std::vector<Expr> values;
+  values.reserve(names.size());
+  for (const auto& n : names) values.push_back(signals[SignalIndex(n)].value);
+  // The symbols of `dynamics`, so the signal Function takes exactly the same x, u and p.
+  return expr::Function(name + "_signals",
+                        {{"x", dynamics.InputSymbols(0)},
+                         {"u", dynamics.InputSymbols(1)},
+                         {"p", dynamics.InputSymbols(2)}},
+                        {{"signals", values}});
+}
+
+Eigen::MatrixXd StateSpaceModel::EvaluateSignals(const std::vector<std::string>& names,
+                                                 const Eigen::MatrixXd& X, const Eigen::MatrixXd& U,
+                                                 const Eigen::VectorXd& p,
+                                                 expr::EvalStatus* status) const {
+  auto expect = [&](bool ok, const std::string& what, const std::string& expected,
+                    const std::string& got) {
+    if (ok) return;
+    throw std::invalid_argument("model '" + name + "': EvaluateSignals: " + what + ": expected " +
+                                expected + ", got " + got);
+  };
+  auto shape = [](const Eigen::MatrixXd& m) {
+    return std::to_string(m.rows()) + " x " + std::to_string(m.cols());
+  };
+  const Eigen::Index n = X.rows();
+  expect(X.cols() == NumStates(), "X",
+         "N x " + std::to_string(NumStates()) + " (one row per sample, one column per state)",
+         shape(X));
+  expect(U.rows() == n && U.cols() == NumInputs(), "U",
+         std::to_string(n) + " x " + std::to_string(NumInputs()) + " (the rows of X)", shape(U));
+  expect(p.size() == NumParameters(), "p", std::to_string(NumParameters()) + " parameters",
+         std::to_string(p.size()));
+  const expr::Function f = SignalFunction(names);
+  expr::Workspace ws = f.MakeWorkspace();
+  std::vector<Eigen::MatrixXd> out;
+  const expr::EvalStatus st =
+      f.EvaluateBatch({X.transpose(), U.transpose(), p.replicate(1, n)}, &out, &ws);
+  if (status) *status = st;
+  return out[0].transpose();
+}
 
 Model::Model(std::string name) : name_(std::move(name)) {}
 
@@ -141,6 +187,7 @@ void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> b
     mp.name = instance + "." + par.name;
     mp.info = par;
     mp.value = par.nominal;
+    mp.free = !par.fixed_by_default;
     mp.scale = DefaultParameterScale(par);
     mp.lower = par.lower;
     mp.upper = par.upper;
@@ -273,8 +320,12 @@ StateSpaceModel Model::Build() const {
       offset += inst.block->NumParameters();
     }
   }
-  // Which instances produce each signal.
+  // Which instances produce each signal, and the signal order of StateSpaceModel::signals:
+  // inputs, states, then block-output signals by first appearance.
   std::map<std::string, std::vector<int>> producers;
+  std::vector<std::string> signal_order;
+  for (const auto& in : inputs_) signal_order.push_back(in.info.name);
+  for (const auto& s : ss.states) signal_order.push_back(s.name);
   for (std::size_t i = 0; i < instances_.size(); ++i) {
     for (std::size_t k = 0; k < instances_[i].outputs.size(); ++k) {
       const auto& out = instances_[i].outputs[k];
@@ -283,7 +334,19 @@ StateSpaceModel Model::Build() const {
       producers[target].push_back(static_cast<int>(i));
       SignalInfo info = instances_[i].block->info().outputs[k];
       info.name = target;
-      signal_info.emplace(target, info);
+      if (signal_info.emplace(target, info).second) signal_order.push_back(target);
+      // The first role declared by a producer (SignalDescription::info).
+      SignalInfo& known = signal_info[target];
+      if (known.role == SignalRole::kNone) known.role = info.role;
+    }
+  }
+  // Then the role of the block inputs that read a signal without one.
+  for (const auto& inst : instances_) {
+    for (std::size_t k = 0; k < inst.inputs.size(); ++k) {
+      auto it = signal_info.find(inst.inputs[k]);
+      if (it != signal_info.end() && it->second.role == SignalRole::kNone) {
+        it->second.role = inst.block->info().inputs[k].role;
+      }
     }
   }
   const std::vector<std::string> known = Signals();
@@ -358,6 +421,37 @@ StateSpaceModel Model::Build() const {
     SignalInfo info = signal_info.count(out) ? signal_info[out] : SignalInfo{out, "", "", -1, 1};
     info.name = out;
     ss.outputs.push_back(info);
+  }
+  // Every named signal with its value (all blocks have contributed by now).
+  std::set<std::string> input_names;
+  for (const auto& in : inputs_) input_names.insert(in.info.name);
+  std::map<std::string, std::string> state_owner;
+  for (const auto& inst : instances_) {
+    for (const auto& st : inst.block->info().states) {
+      state_owner[inst.name + "." + st.name] = inst.name;
+    }
+  }
+  for (const std::string& s : signal_order) {
+    SignalDescription d;
+    d.info = signal_info[s];
+    d.info.name = s;
+    if (input_names.count(s)) {
+      d.source = SignalSource::kInput;
+    } else if (state_owner.count(s)) {
+      d.source = SignalSource::kState;
+      d.blocks.push_back(state_owner[s]);
+    } else {
+      d.source = SignalSource::kBlockOutput;
+    }
+    if (auto it = producers.find(s); it != producers.end()) {
+      for (int i : it->second) {
+        if (std::find(d.blocks.begin(), d.blocks.end(), instances_[i].name) == d.blocks.end()) {
+          d.blocks.push_back(instances_[i].name);
+        }
+      }
+    }
+    d.value = value(s);
+    ss.signals.push_back(std::move(d));
   }
   if (x.empty() && y.empty()) {
     throw std::invalid_argument("model '" + name_ + "': expected states or outputs, got neither");

@@ -67,14 +67,15 @@ ParameterInfo Param(std::string name, std::string unit, std::string description,
   return p;
 }
 
-SignalInfo Signal(std::string name, std::string unit, std::string description, double lo,
-                  double hi) {
+SignalInfo Signal(std::string name, std::string unit, std::string description, double lo, double hi,
+                  SignalRole role = SignalRole::kNone) {
   SignalInfo s;
   s.name = std::move(name);
   s.unit = std::move(unit);
   s.description = std::move(description);
   s.typical_min = lo;
   s.typical_max = hi;
+  s.role = role;
   return s;
 }
 
@@ -313,9 +314,9 @@ class OrificeBlock : public BlockBase<OrificeBlock> {
         "equal pressures.";
     info_.reference = "seed 004 eq. 3.1, 3.2 (table 3.2)";
     info_.inputs = {Signal("p_up", "kPa", "absolute pressure on the nominal upstream side",
-                           kPressureMin, kPressureMax),
+                           kPressureMin, kPressureMax, SignalRole::kPressure),
                     Signal("p_down", "kPa", "absolute pressure on the nominal downstream side",
-                           kPressureMin, kPressureMax),
+                           kPressureMin, kPressureMax, SignalRole::kPressure),
                     Signal("area", "mm^2", "orifice (valve port) area", 0.05, kAreaMax)};
     info_.outputs = {Signal("mdot", "kg/s", "mass flow from the up to the down side", -kMassFlowMax,
                             kMassFlowMax)};
@@ -344,7 +345,8 @@ class ChamberBlock : public BlockBase<ChamberBlock> {
         "Pressure of an ideal gas in a chamber of varying volume: pdot = n (R T mdot - p Vdot) / "
         "V, n the polytropic exponent.";
     info_.reference = "seed 004 eq. 3.3 (sign of the volume term corrected), table 3.2";
-    info_.states = {Signal("p", "kPa", "absolute chamber pressure", kPressureMin, kPressureMax)};
+    info_.states = {Signal("p", "kPa", "absolute chamber pressure", kPressureMin, kPressureMax,
+                           SignalRole::kPressure)};
     info_.inputs = {
         Signal("mdot", "kg/s", "net mass flow into the chamber", -kMassFlowMax, kMassFlowMax),
         Signal("volume", "mm^3", "chamber volume", kVolumeMin, kVolumeMax),
@@ -378,7 +380,8 @@ class PortsBlock : public BlockBase<PortsBlock> {
         "Mass flow into a chamber through the supply and exhaust ports of its valve: two "
         "orifices, supply to chamber and chamber to exhaust.";
     info_.reference = "seed 004 eq. 3.4 (without the k R T / V factor of eq. 3.3), 3.1, 3.2";
-    info_.inputs = {Signal("p", "kPa", "absolute chamber pressure", kPressureMin, kPressureMax),
+    info_.inputs = {Signal("p", "kPa", "absolute chamber pressure", kPressureMin, kPressureMax,
+                           SignalRole::kPressure),
                     Signal("area_supply", "mm^2", "supply port area a_c", 0.0, kAreaMax),
                     Signal("area_exhaust", "mm^2", "exhaust port area a_r", 0.0, kAreaMax)};
     info_.outputs = {
@@ -416,7 +419,7 @@ class ValveAreaBlock : public BlockBase<ValveAreaBlock> {
         "command, area model '" +
         model_.name() + "' (options: model = smax | quadratic | table).";
     info_.reference = "seed 004 section 3.3, eq. 3.12-3.16";
-    info_.inputs = {Signal("u", "V", "valve command", 0.0, kCommandMax)};
+    info_.inputs = {Signal("u", "V", "valve command", 0.0, kCommandMax, SignalRole::kVoltage)};
     info_.outputs = {Signal("area_supply", "mm^2", "supply port area a_c", 0.0, kAreaMax),
                      Signal("area_exhaust", "mm^2", "exhaust port area a_r", 0.0, kAreaMax)};
     model_.AppendParameters("", "", &info_.parameters);
@@ -467,8 +470,9 @@ class SliderCrankBlock : public BlockBase<SliderCrankBlock> {
         "Slider-crank coupling of a joint to a double-acting cylinder: both chamber volumes, "
         "their rates and the lever arm dx/dq of the piston force.";
     info_.reference = "seed 004 eq. 3.7-3.10 (eq. 3.10 as implied by eq. 3.8), table 3.3";
-    info_.inputs = {Signal("q", "rad", "joint (crank) angle", kAngleMin, kAngleMax),
-                    Signal("qd", "rad/s", "joint speed", -kSpeedMax, kSpeedMax)};
+    info_.inputs = {
+        Signal("q", "rad", "joint (crank) angle", kAngleMin, kAngleMax, SignalRole::kPosition),
+        Signal("qd", "rad/s", "joint speed", -kSpeedMax, kSpeedMax, SignalRole::kVelocity)};
     info_.outputs = {
         Signal("volume_1", "mm^3", "volume V1 of chamber 1", kVolumeMin, kVolumeMax),
         Signal("volume_2", "mm^3", "volume V2 of chamber 2", kVolumeMin, kVolumeMax),
@@ -526,13 +530,18 @@ class ArmBlock : public BlockBase<ArmBlock> {
         valve_.name() + "'): joint angle, speed and both chamber pressures.";
     info_.reference = "seed 004 chapter 3: eq. 3.1-3.4, 3.6-3.10, 3.12-3.16, tables 3.2, 3.3";
     info_.states = {
-        Signal("q", "rad", "joint (crank) angle", kAngleMin, kAngleMax),
-        Signal("qd", "rad/s", "joint speed", -kSpeedMax, kSpeedMax),
-        Signal("p1", "kPa", "absolute pressure in chamber 1", kPressureMin, kPressureMax),
-        Signal("p2", "kPa", "absolute pressure in chamber 2", kPressureMin, kPressureMax)};
-    info_.inputs = {Signal("u1", "V", "command of the valve of chamber 1", 0.0, kCommandMax),
-                    Signal("u2", "V", "command of the valve of chamber 2", 0.0, kCommandMax)};
-    info_.outputs = {Signal("torque", "N m", "pneumatic joint torque", -kTorqueMax, kTorqueMax)};
+        Signal("q", "rad", "joint (crank) angle", kAngleMin, kAngleMax, SignalRole::kPosition),
+        Signal("qd", "rad/s", "joint speed", -kSpeedMax, kSpeedMax, SignalRole::kVelocity),
+        Signal("p1", "kPa", "absolute pressure in chamber 1", kPressureMin, kPressureMax,
+               SignalRole::kPressure),
+        Signal("p2", "kPa", "absolute pressure in chamber 2", kPressureMin, kPressureMax,
+               SignalRole::kPressure)};
+    info_.inputs = {Signal("u1", "V", "command of the valve of chamber 1", 0.0, kCommandMax,
+                           SignalRole::kVoltage),
+                    Signal("u2", "V", "command of the valve of chamber 2", 0.0, kCommandMax,
+                           SignalRole::kVoltage)};
+    info_.outputs = {Signal("torque", "N m", "pneumatic joint torque", -kTorqueMax, kTorqueMax,
+                            SignalRole::kForce)};
     std::vector<ParameterInfo>& p = info_.parameters;
     AppendOrificeParameters(/*alpha_neutral=*/false, &p);
     p.push_back(PolytropicExponent());

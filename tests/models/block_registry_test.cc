@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -130,6 +132,65 @@ TEST_P(RegisteredBlock, DerivativesMatchFiniteDifferences) {
   testing::ExpectBlockDerivativesMatch(*Make(), testing::TestSeed());
 }
 
+TEST_P(RegisteredBlock, FixedByDefaultParametersAreUsableSettings) {
+  const auto block = Make();
+  // A parameter fixed by default is used at its nominal value: it must be a finite number inside
+  // the bounds (checked above), and Model::AddBlock must start it fixed and every other one free.
+  for (const ParameterInfo& par : block->info().parameters) {
+    if (par.fixed_by_default) {
+      EXPECT_TRUE(std::isfinite(par.nominal)) << par.name;
+    }
+  }
+  Model m("one_block");
+  std::vector<std::string> inputs, outputs;
+  for (const SignalInfo& s : block->info().inputs) inputs.push_back("in_" + s.name);
+  for (const SignalInfo& s : block->info().outputs) outputs.push_back("out_" + s.name);
+  m.AddBlock("b", std::shared_ptr<const Block>(Make()), inputs, outputs);
+  for (const ParameterInfo& par : block->info().parameters) {
+    EXPECT_EQ(m.Parameter("b." + par.name).free, !par.fixed_by_default) << par.name;
+  }
+}
+
+// The units a signal of each role may have (SignalRole in block.h).
+bool UnitFitsRole(SignalRole role, const std::string& unit) {
+  auto one_of = [&](std::initializer_list<const char*> units) {
+    for (const char* u : units) {
+      if (unit == u) return true;
+    }
+    return false;
+  };
+  switch (role) {
+    case SignalRole::kNone:
+      return true;
+    case SignalRole::kPosition:
+      return one_of({"m", "rad"});
+    case SignalRole::kVelocity:
+      return one_of({"m/s", "rad/s"});
+    case SignalRole::kAcceleration:
+      return one_of({"m/s^2", "rad/s^2"});
+    case SignalRole::kForce:
+      return one_of({"N", "N m"});
+    case SignalRole::kPressure:
+      return one_of({"Pa", "kPa", "bar"});
+    case SignalRole::kVoltage:
+      return one_of({"V"});
+    case SignalRole::kCurrent:
+      return one_of({"A"});
+  }
+  return false;
+}
+
+TEST_P(RegisteredBlock, SignalRolesFitTheirUnits) {
+  const auto block = Make();
+  for (const auto* signals :
+       {&block->info().inputs, &block->info().outputs, &block->info().states}) {
+    for (const SignalInfo& s : *signals) {
+      EXPECT_TRUE(UnitFitsRole(s.role, s.unit))
+          << "'" << s.name << "' is a " << SignalRoleName(s.role) << " in '" << s.unit << "'";
+    }
+  }
+}
+
 std::vector<std::string> RegisteredTypes() { return BlockRegistry::Global().Types(); }
 
 INSTANTIATE_TEST_SUITE_P(AllBlocks, RegisteredBlock, ::testing::ValuesIn(RegisteredTypes()),
@@ -141,6 +202,106 @@ INSTANTIATE_TEST_SUITE_P(AllBlocks, RegisteredBlock, ::testing::ValuesIn(Registe
                            return name;
                          });
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(RegisteredBlock);
+
+// Exactly the parameters the problem files fixed before fixed_by_default existed (the gains and
+// the limit of control.cascade_p), with the shared tests' options and with the defaults.
+TEST(BlockRegistry, FixedByDefaultAreExactlyTheControllerSettings) {
+  const BlockRegistry& registry = BlockRegistry::Global();
+  std::set<std::string> fixed;
+  for (const std::string& type : registry.Types()) {
+    for (const BlockOptions& options : {registry.TestOptions(type), BlockOptions{}}) {
+      std::unique_ptr<Block> block;
+      try {
+        block = registry.Create(type, options);
+      } catch (const std::invalid_argument&) {
+        continue;  // a block that needs options (its test options are covered)
+      }
+      for (const ParameterInfo& par : block->info().parameters) {
+        if (par.fixed_by_default) fixed.insert(type + "." + par.name);
+      }
+    }
+  }
+  EXPECT_EQ(fixed, (std::set<std::string>{"control.cascade_p.kp", "control.cascade_p.kv",
+                                          "control.cascade_p.limit"}));
+}
+
+// The physical roles of the mechanical axis signals of the friction, mechanics, drive and
+// pneumatic blocks (with the shared tests' options). Every signal of these blocks not listed here
+// must have no role.
+TEST(BlockRegistry, AxisSignalsOfMechanicalBlocksHaveTheirRoles) {
+  using R = SignalRole;
+  struct Roles {
+    std::map<std::string, R> inputs, outputs, states;
+  };
+  const Roles friction{{{"qd", R::kVelocity}}, {{"tau", R::kForce}}, {}};
+  const std::map<std::string, Roles> expected = {
+      {"friction.viscous", friction},
+      {"friction.coulomb", friction},
+      {"friction.offset", friction},
+      {"friction.stribeck", friction},
+      {"friction.power_viscous", friction},
+      {"friction.dahl", friction},  // z, the bristle deflection, has none
+      {"friction.lugre", friction},
+      {"friction.kuka", friction},
+      {"friction.torque_dependent",
+       {{{"qd", R::kVelocity}, {"tau_load", R::kForce}},
+        {{"tau", R::kForce}},
+        {{"tau_d", R::kForce}}}},
+      {"friction.ripple", {{{"q", R::kPosition}}, {{"tau", R::kForce}}, {}}},
+      {"mechanics.mass", {{{"force", R::kForce}}, {}, {{"q", R::kPosition}, {"qd", R::kVelocity}}}},
+      {"control.cascade_p",
+       {{{"q", R::kPosition}, {"qd", R::kVelocity}}, {{"nu", R::kVoltage}}, {}}},
+      {"drive.two_mass",
+       {{{"tau_m", R::kForce}, {"tau_ext", R::kForce}},
+        {{"q_m", R::kPosition},
+         {"qd_m", R::kVelocity},
+         {"q_l", R::kPosition},
+         {"qd_l", R::kVelocity},
+         {"tau_s", R::kForce}},
+        {{"q_m", R::kPosition},
+         {"qd_m", R::kVelocity},
+         {"q_l", R::kPosition},
+         {"qd_l", R::kVelocity}}}},
+      {"drive.gear",
+       {{{"tau_m", R::kForce}, {"qd", R::kVelocity}, {"qdd", R::kAcceleration}},
+        {{"tau", R::kForce}, {"qd_m", R::kVelocity}},
+        {}}},
+      {"drive.dc_motor",
+       {{{"u", R::kVoltage}, {"tau_load", R::kForce}},
+        {{"theta", R::kPosition}, {"omega", R::kVelocity}, {"i", R::kCurrent}},
+        {{"theta", R::kPosition}, {"omega", R::kVelocity}, {"i", R::kCurrent}}}},
+      {"drive.backlash", {}},  // a deflection is not an axis position
+      {"pneumatic.orifice", {{{"p_up", R::kPressure}, {"p_down", R::kPressure}}, {}, {}}},
+      {"pneumatic.chamber", {{}, {}, {{"p", R::kPressure}}}},
+      {"pneumatic.ports", {{{"p", R::kPressure}}, {}, {}}},
+      {"pneumatic.valve_area", {{{"u", R::kVoltage}}, {}, {}}},
+      {"pneumatic.slider_crank", {{{"q", R::kPosition}, {"qd", R::kVelocity}}, {}, {}}},
+      {"pneumatic.arm",
+       {{{"u1", R::kVoltage}, {"u2", R::kVoltage}},
+        {{"torque", R::kForce}},
+        {{"q", R::kPosition}, {"qd", R::kVelocity}, {"p1", R::kPressure}, {"p2", R::kPressure}}}},
+  };
+  const BlockRegistry& registry = BlockRegistry::Global();
+  for (const auto& [type, roles] : expected) {
+    SCOPED_TRACE(type);
+    const auto block = registry.Create(type, registry.TestOptions(type));
+    auto check = [&](const std::vector<SignalInfo>& signals, const std::map<std::string, R>& want,
+                     const char* kind) {
+      std::size_t found = 0;
+      for (const SignalInfo& s : signals) {
+        auto it = want.find(s.name);
+        found += it != want.end();
+        const R role = it == want.end() ? R::kNone : it->second;
+        EXPECT_EQ(s.role, role) << kind << " '" << s.name << "' is a " << SignalRoleName(s.role)
+                                << ", expected a " << SignalRoleName(role);
+      }
+      EXPECT_EQ(found, want.size()) << kind << ": a listed signal is missing";
+    };
+    check(block->info().inputs, roles.inputs, "input");
+    check(block->info().outputs, roles.outputs, "output");
+    check(block->info().states, roles.states, "state");
+  }
+}
 
 TEST(BlockRegistry, UnknownTypeSuggestsTheClosest) {
   const auto types = BlockRegistry::Global().Types();

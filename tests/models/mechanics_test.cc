@@ -131,12 +131,25 @@ TEST(CascadeController, SaturatesSmoothlyAndOddly) {
 }
 
 TEST(CascadeController, GainsAreSettingsFixedByDefault) {
-  EXPECT_TRUE(IsFixedByDefault(kCascadePController, "kp"));
-  EXPECT_TRUE(IsFixedByDefault(kCascadePController, "kv"));
-  EXPECT_TRUE(IsFixedByDefault(kCascadePController, "limit"));
-  EXPECT_FALSE(IsFixedByDefault(kMassBlock, "mass"));
-  EXPECT_FALSE(IsFixedByDefault(kGainBlock, "k"));
-  EXPECT_FALSE(IsFixedByDefault("friction.viscous", "fv"));
+  // The block's metadata says so, and Model::AddBlock starts exactly those parameters fixed.
+  const auto controller = BlockRegistry::Global().Create(kCascadePController);
+  for (const ParameterInfo& par : controller->info().parameters) {
+    EXPECT_TRUE(par.fixed_by_default) << par.name;
+  }
+  Model m("loop");
+  m.AddInput("qr", "m", "position reference");
+  m.AddBlock("controller", kCascadePController, {}, {"qr", "load.q", "load.qd"}, {"nu"});
+  m.AddBlock("drive", kGainBlock, {}, {"nu"}, {"force"});
+  m.AddBlock("load", kMassBlock, {}, {"force"}, {});
+  m.AddBlock("friction", "friction.viscous", {}, {"load.qd"}, {"-force"});
+  for (const char* name : {"controller.kp", "controller.kv", "controller.limit"}) {
+    EXPECT_FALSE(m.Parameter(name).free) << name;
+  }
+  for (const char* name : {"drive.k", "load.mass", "friction.fv"}) {
+    EXPECT_TRUE(m.Parameter(name).free) << name;
+  }
+  m.Free("controller.kp");
+  EXPECT_TRUE(m.Parameter("controller.kp").free);
   BlockOptions bad;
   bad.numbers["smoothing"] = {-1.0};
   EXPECT_THROW(BlockRegistry::Global().Create(kCascadePController, bad), std::invalid_argument);

@@ -35,6 +35,26 @@
 
 namespace graybox::models {
 
+/// What physical quantity a signal is, when that is unambiguous. The sim-to-real gap diagnosis
+/// reads it to attach candidate effects where they belong (friction on a velocity, ripple on a
+/// position, a delay or gain error on a force). Mechanical roles refer to one axis in generalised
+/// coordinates: a position is a length [m] or an angle [rad], a force is a force [N] or a torque
+/// [N m]. Relative quantities that are not an axis' own (a spring deflection, a bristle
+/// deflection), commands, flows and network signals keep kNone.
+enum class SignalRole {
+  kNone,
+  kPosition,      // q of an axis [m] or [rad]
+  kVelocity,      // dq/dt [m/s] or [rad/s]
+  kAcceleration,  // d^2q/dt^2 [m/s^2] or [rad/s^2]
+  kForce,         // a force or torque acting along the axis [N] or [N m]
+  kPressure,      // an absolute or gauge pressure [Pa, kPa, bar]
+  kVoltage,       // an electric voltage [V]
+  kCurrent,       // an electric current [A]
+};
+
+/// "none", "position", "velocity", "acceleration", "force", "pressure", "voltage", "current".
+const char* SignalRoleName(SignalRole role);
+
 /// A named scalar signal (input, output or state) of a block.
 struct SignalInfo {
   std::string name;         // local name, e.g. "qd"
@@ -44,6 +64,8 @@ struct SignalInfo {
   /// analysis of the diagnosis); not a hard limit.
   double typical_min = -1.0;
   double typical_max = 1.0;
+  /// The physical quantity, where unambiguous (see SignalRole); kNone otherwise.
+  SignalRole role = SignalRole::kNone;
 };
 
 /// A scalar parameter of a block.
@@ -56,6 +78,10 @@ struct ParameterInfo {
   double upper = std::numeric_limits<double>::infinity();
   /// Value at which the block leaves the model it is added to unchanged, or NaN when there is none.
   double neutral = std::numeric_limits<double>::quiet_NaN();
+  /// True for a known setting rather than an unknown to identify (a controller gain, a saturation
+  /// level): Model::AddBlock starts such a parameter fixed, and a caller (or a problem file's
+  /// `free = true`) frees it explicitly. Its nominal value is then the value used, so it is finite.
+  bool fixed_by_default = false;
   bool HasNeutral() const { return neutral == neutral; }
 };
 

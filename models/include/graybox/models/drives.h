@@ -16,6 +16,11 @@
 // Listing format: signals name [unit] (typical range); parameters name [unit] nominal
 // (lower, upper) neutral.
 //
+// Signal roles (SignalInfo::role, block.h): angles q_m, q_l, theta are kPosition; speeds qd_m,
+// qd_l, qd, omega kVelocity; qdd kAcceleration; torques tau_m, tau_ext, tau_s, tau, tau_load
+// kForce; the DC motor's u kVoltage and i kCurrent. The deflections of drive.backlash (relative
+// angles, not an axis') and the generic signal of delay.first_order have none (kNone).
+//
 // "drive.two_mass"  (seed 002 eq. 6-1)
 //     delta = q_m - q_l,  tau_s = Ke delta + d d(delta)/dt,
 //     J dqd_m/dt = tau_m - tau_s,   I dqd_l/dt = tau_s + tau_ext.

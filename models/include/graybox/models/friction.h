@@ -57,6 +57,11 @@
 // |qd| <= 300 rad/s ~ 3000 rpm, |tau_load| <= 10 N m), the KUKA KR300 joints of roblue
 // (|qd| <= 2 rad/s).
 //
+// ---- Signal roles (SignalInfo::role, block.h) -------------------------------------------------
+// Every velocity input "qd" is a kVelocity, the ripple's "q" a kPosition, every "tau" output, the
+// load torque "tau_load" and the dry-friction state "tau_d" are kForce; the bristle deflection "z"
+// of Dahl and LuGre is not an axis quantity (kNone).
+//
 // ---- The blocks -------------------------------------------------------------------------------
 // Inputs, outputs and states are listed as name [unit] (typical range); parameters as
 // name [unit] nominal (lower, upper) neutral.

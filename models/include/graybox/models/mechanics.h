@@ -25,6 +25,8 @@
 //   qd [rad/s] (-10, 10), force [N m] (-10, 10) (a torque) and mass [kg m^2] (an inertia,
 //   nominal 0.01).
 //   No outputs: the states are the signals "<instance>.q" and "<instance>.qd" (model.h).
+//   Roles (SignalInfo::role): q kPosition, qd kVelocity, force kForce. The controller's q and qd
+//   are kPosition and kVelocity, its output nu kVoltage; its reference qr has none.
 //   Forces are composed on the input signal: a drive writes "+force", friction blocks
 //   (friction.h) read "<instance>.qd" and write "-force". The mass has no neutral value (it
 //   divides), so this block is a plant, never an augmentation candidate.
@@ -39,8 +41,9 @@
 //   kp    [1/s]      160.18  (0, inf)     no neutral  position loop gain (EMPS)
 //   kv    [V s/m]    243.45  (0, inf)     no neutral  velocity loop gain (EMPS)
 //   limit [V]        10      (1e-6, inf)  no neutral  saturation level L (EMPS viradm = 10)
-//   The three are known SETTINGS, not unknowns of the plant: IsFixedByDefault() says so, and the
-//   problem files (estimators/problem_file.h) fix them unless a file frees them explicitly.
+//   The three are known SETTINGS, not unknowns of the plant: their ParameterInfo says
+//   fixed_by_default, so Model::AddBlock starts them fixed (and a problem file keeps them fixed
+//   unless it sets `free = true`).
 //   Smoothing. The saturation clamp(v, -L, L) = (|v + L| - |v - L|) / 2 with |x| replaced by
 //   sqrt(x^2 + eps^2): S is odd, C-infinity and strictly inside (-L, L). Inside the linear range
 //   S(v) = v - eps^2 v / (2 (L^2 - v^2)) + O(eps^4), so with the default eps = 1e-3 V and L = 10 V
@@ -88,10 +91,5 @@ inline constexpr char kIntegratorBlock[] = "signal.integrator";
 
 /// Default smoothing width eps [V] of the control.cascade_p saturation (see above).
 inline constexpr double kDefaultSaturationSmoothing = 1e-3;
-
-/// True for block parameters that are known settings rather than unknowns to identify
-/// (control.cascade_p's kp, kv and limit). Model::AddBlock leaves every parameter free; problem
-/// files fix these unless they set `free = true`. False for unknown types and parameters.
-bool IsFixedByDefault(const std::string& block_type, const std::string& parameter);
 
 }  // namespace graybox::models

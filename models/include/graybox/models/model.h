@@ -18,8 +18,16 @@
 //   m.AddOutput("load.omega");
 //   StateSpaceModel ss = m.Build();
 //
+// Internal signals. The built model exposes every named signal, not only its states and declared
+// outputs (StateSpaceModel::signals): each with its unit, the physical role its blocks declare
+// (SignalRole in block.h: position, velocity, force, ...), the blocks that produce it, and its
+// value as an expression of (x, u, p). SignalFunction() turns any of them into a Function, and
+// EvaluateSignals() evaluates them along a trajectory, so a caller can see the force of a friction
+// block or the velocity a block reads wherever the model has been simulated or measured.
+//
 // Parameters are addressed as "<instance>.<parameter>" (the problem files use the same names);
-// each starts at its block's nominal value, may be fixed or freed, re-bounded and re-scaled.
+// each starts at its block's nominal value, free unless the block declares it a known setting
+// (ParameterInfo::fixed_by_default), and may be fixed or freed, re-bounded and re-scaled.
 //
 // Augmentation. Augment() adds a block exactly like AddBlock() but starts every parameter that has
 // a neutral value at it, so the augmented model's outputs equal the original ones until the
@@ -52,7 +60,37 @@ struct ModelParameter {
   double upper = 0.0;
 };
 
-/// The built model: symbolic Functions plus metadata. Immutable; cheap to copy.
+/// Where the value of a model signal comes from.
+enum class SignalSource {
+  kInput,        // an external input (data), possibly with block outputs added to it
+  kState,        // a block state "<instance>.<state>"
+  kBlockOutput,  // the sum of the block outputs connected to it
+};
+
+/// One named signal of a built model. A signal is a scalar: the sum of its external input (if
+/// declared), its state (if it is one) and every block output connected to it ("-name" subtracts),
+/// as described at the top of this file. Block outputs left unconnected ("") are not signals.
+struct SignalDescription {
+  /// The qualified name ("force", "load.qd", "friction.out"), unit (SI, as declared by the input,
+  /// the state, or the first block output connected to it), description, typical range, and role.
+  /// The role is the first one set among: the declaring input, state or block output, the other
+  /// block outputs connected to it, then the inputs of the blocks that read it (so an external
+  /// input read as "qd" by a friction block is a velocity). kNone when none declares one.
+  SignalInfo info;
+  SignalSource source = SignalSource::kBlockOutput;
+  /// The block instances that produce it, in the order they were added: the owner of a state, or
+  /// every block whose output is connected to the signal. Empty for an external input no block
+  /// adds to.
+  std::vector<std::string> blocks;
+  /// Number of scalar entries; always 1 (a vector quantity, such as a robot's joint torques, is one
+  /// signal per entry). Kept so that callers do not assume it.
+  int size = 1;
+  /// The value as an expression of the model's symbols x, u and p (the inputs of `dynamics`).
+  expr::Expr value;
+};
+
+/// The built model: symbolic Functions plus metadata. Immutable; cheap to copy (Functions and
+/// expressions are shared).
 struct StateSpaceModel {
   std::string name;
   std::vector<SignalInfo> states;   // qualified names "<instance>.<state>"
@@ -65,11 +103,16 @@ struct StateSpaceModel {
   expr::Function dynamics;
   /// Inputs "x", "u", "p"; output "y".
   expr::Function output;
+  /// Every named signal of the model: the external inputs (in declaration order), then the states
+  /// (in state order), then the other signals written by block outputs (in the order the blocks
+  /// were added). Names are unique.
+  std::vector<SignalDescription> signals;
 
   int NumStates() const { return static_cast<int>(states.size()); }
   int NumInputs() const { return static_cast<int>(inputs.size()); }
   int NumOutputs() const { return static_cast<int>(outputs.size()); }
   int NumParameters() const { return static_cast<int>(parameters.size()); }
+  int NumSignals() const { return static_cast<int>(signals.size()); }
   /// Current parameter values in order.
   Eigen::VectorXd ParameterValues() const;
   /// Index of a parameter, state, input or output by name; std::invalid_argument with a
@@ -78,6 +121,29 @@ struct StateSpaceModel {
   int StateIndex(const std::string& name) const;
   int InputIndex(const std::string& name) const;
   int OutputIndex(const std::string& name) const;
+  /// Index of a signal in `signals`; std::invalid_argument with a did-you-mean suggestion
+  /// otherwise.
+  int SignalIndex(const std::string& name) const;
+
+  /// The signals `names` (in that order; repeats allowed, empty allowed) as a Function with inputs
+  /// "x" (NumStates()), "u" (NumInputs()), "p" (NumParameters()) and one output "signals" of
+  /// names.size() entries, in the signals' units. Like `dynamics`, the Function is immutable:
+  /// evaluate it concurrently with one Workspace per thread (Function::MakeWorkspace()); its
+  /// derivatives come from Function::Jacobian etc. Compiling it costs about as much as compiling
+  /// `output`, so build it once and reuse it. Throws std::invalid_argument for an unknown name:
+  /// "model 'm': unknown signal 'x'; did you mean 'y'?".
+  expr::Function SignalFunction(const std::vector<std::string>& names) const;
+
+  /// The signals `names` along a trajectory: row k of the N x names.size() result is the signals
+  /// at x = X.row(k) (X is N x NumStates()), u = U.row(k) (U is N x NumInputs()) and the parameter
+  /// vector p (NumParameters()), the same for every row. Builds SignalFunction(names) on every
+  /// call (reuse SignalFunction for repeated evaluation). Throws std::invalid_argument for an
+  /// unknown name or wrong sizes ("expected X, got Y"). A non-finite value (a division by a zero
+  /// mass, an overflow) is returned as it is, not thrown; `status`, when given, reports the first
+  /// one (EvalStatus::ok is false and `message` names it).
+  Eigen::MatrixXd EvaluateSignals(const std::vector<std::string>& names, const Eigen::MatrixXd& X,
+                                  const Eigen::MatrixXd& U, const Eigen::VectorXd& p,
+                                  expr::EvalStatus* status = nullptr) const;
 };
 
 class Model {
@@ -93,6 +159,8 @@ class Model {
 
   /// Adds a block instance. inputs[i] names the signal feeding block input i; outputs[i] names
   /// the signal block output i adds to ("-name" subtracts; "" leaves the output unconnected).
+  /// Its parameters start at their nominal values, free except those the block declares
+  /// fixed_by_default (known settings such as controller gains; Free() them to identify them).
   /// Throws std::invalid_argument for a repeated instance name, wrong connection counts, or a
   /// name containing '.'.
   void AddBlock(const std::string& instance, std::shared_ptr<const Block> block,

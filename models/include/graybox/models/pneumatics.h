@@ -17,6 +17,9 @@
 // The conversions live in the templates (kKilopascal, kSquareMillimetre, kCubicMillimetre,
 // kMillimetre), never in the caller. Every pressure must be > 0 (absolute): the flow functions
 // divide by the higher pressure.
+// Signal roles (SignalInfo::role, block.h): pressures are kPressure, the joint angle q kPosition,
+// its speed qd kVelocity, the arm torque kForce, valve commands kVoltage; flows, areas and volumes
+// have none.
 //
 // ---- Seed 004 constants (tables 3.2 and 3.3) --------------------------------------------------
 //   alpha = 0.1124 sqrt(K) s/m   flow constant of the unchoked branch (eq. 3.1)

@@ -6,8 +6,8 @@
 
 #include <string>
 
-#include "graybox/estimators/mat_file.h"
-#include "graybox/estimators/n_step.h"
+#include "graybox/estimators/analysis/n_step.h"
+#include "graybox/estimators/data/mat_file.h"
 #include "graybox/models/model.h"
 #include "graybox/models/robot_blocks.h"
 

@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/problem_file.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/problem/problem_file.h"
+#include "graybox/estimators/solvers/solvers.h"
 
 namespace {
 
@@ -24,13 +24,15 @@ namespace est = graybox::estimators;
 
 struct Emps {
   est::Problem problem;
-  est::ExperimentData record;
+  est::Experiment record;
+  est::ExperimentSetup setup;
 };
 
 const Emps& LoadEmps() {
   static const Emps emps = [] {
     Emps e{
         est::LoadProblem(std::string(GRAYBOX_SOURCE_DIR) + "/problems/emps/emps_closed_loop.toml"),
+        {},
         {}};
     for (const est::SplitData& s : est::LoadData(e.problem)) {
       if (s.name != "estimation") continue;
@@ -38,24 +40,31 @@ const Emps& LoadEmps() {
       e.record.dt = s.experiment.dt;
       e.record.u = s.experiment.u;
       e.record.y = s.experiment.y;
-      e.record.x0 = s.x0;
+      e.setup.x0 = s.setup.x0;
     }
     return e;
   }();
   return emps;
 }
 
-std::vector<est::ExperimentData> Records(int samples) {
-  const est::ExperimentData& full = LoadEmps().record;
-  std::vector<est::ExperimentData> out;
+/// The copies of the record and their setups (the same initial state each), in the same order.
+struct Records {
+  std::vector<est::Experiment> experiments;
+  std::vector<est::ExperimentSetup> setups;
+};
+
+Records Copies(int samples) {
+  const est::Experiment& full = LoadEmps().record;
+  Records out;
   int left = samples;
   while (left > 0) {
     const int n = std::min<int>(left, static_cast<int>(full.u.rows()));
-    est::ExperimentData e = full;
-    e.name = "copy" + std::to_string(out.size());
+    est::Experiment e = full;
+    e.name = "copy" + std::to_string(out.experiments.size());
     e.u = full.u.topRows(n);
     e.y = full.y.topRows(n);
-    out.push_back(std::move(e));
+    out.experiments.push_back(std::move(e));
+    out.setups.push_back(LoadEmps().setup);
     left -= n;
   }
   return out;
@@ -64,7 +73,7 @@ std::vector<est::ExperimentData> Records(int samples) {
 void BM_EmpsMultipleShootingIpoptIteration(benchmark::State& state) {
   const int samples = static_cast<int>(state.range(0));
   const Emps& emps = LoadEmps();
-  const std::vector<est::ExperimentData> records = Records(samples);
+  const Records records = Copies(samples);
   est::MultipleShootingOptions options = emps.problem.estimation.multiple_shooting;
   est::IpoptOptions ipopt = emps.problem.estimation.ipopt;
   constexpr int kShort = 3, kLong = 11;
@@ -73,8 +82,8 @@ void BM_EmpsMultipleShootingIpoptIteration(benchmark::State& state) {
   int solves = 0;
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
-    const est::ShootingProblem problem =
-        est::BuildMultipleShooting(emps.problem.built, records, options);
+    const est::ShootingProblem problem = est::BuildMultipleShooting(
+        emps.problem.built, records.experiments, records.setups, options);
     problem.nlp.HessianRows();  // the lazy Functions, so the solves time iterations only
     double f = 0.0;
     problem.nlp.Objective(problem.nlp.w0().data(), &f);

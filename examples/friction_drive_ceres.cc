@@ -17,11 +17,19 @@
 //     minimise over theta = (J, fv, fc), s_j
 //         1/2 sum_k ((y_k - q_k(theta, s)) / std(y))^2
 //       + 1/2 sum_j |w_c (Phi(end of segment j) - s_{j+1})|^2
-// i.e. continuity between the 20-sample segments is a residual with weight w_c = 1e3
-// (continuity_as_constraints = false), so Ceres (trust-region Levenberg-Marquardt with a sparse
-// Cholesky) can solve it. The fit starts from the blocks' nominal values, 2 to 7 times off the
-// truth, with the shooting nodes initialised from the data (angle measured, speed by central
-// differences). The 95% intervals are the Gauss-Newton output-error covariance (covariance.h).
+// i.e. continuity between the 20-sample segments is a residual with weight w_c = 1e3, so Ceres
+// (trust-region Levenberg-Marquardt with a sparse Cholesky) can solve it. The fit starts from the
+// blocks' nominal values, 2 to 7 times off the truth, with the shooting nodes initialised from the
+// data (angle measured, speed by central differences).
+//
+// The fit goes through estimators::Fit (fit/fit.h): MakeProblem with EstimationSpec solver =
+// "ceres" (which puts multiple shooting's continuity into the residuals) and node_guess = "data"
+// (the node guess is the states derived from the measurements as for equation error,
+// EquationErrorSpec: q as measured, unfiltered, and qd = dq/dt by central differences;
+// StatesFromData returns the same matrix for the printout), MakeSplit for the record. The 95%
+// intervals are Fit's covariance for multiple shooting, the Gauss-Newton covariance of the shooting
+// NLP with the continuity residuals taken as exact constraints (NlpCovariance,
+// analysis/covariance.h), which does not depend on w_c.
 //
 // Check. Every estimate within kTolerance (2 %) of the truth; exit code 0 when all are.
 #include <cmath>
@@ -30,13 +38,9 @@
 #include <iostream>
 #include <random>
 #include <string>
-#include <vector>
 
-#include "graybox/estimators/covariance.h"
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/preprocessing.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/fit/fit.h"
+#include "graybox/estimators/integrators/integrators.h"
 #include "graybox/models/friction.h"
 #include "graybox/models/mechanics.h"
 #include "graybox/models/model.h"
@@ -63,7 +67,7 @@ unsigned Seed() {
   return env ? static_cast<unsigned>(std::strtoul(env, nullptr, 10)) : 5u;
 }
 
-models::StateSpaceModel DriveModel() {
+models::Model DriveModel() {
   models::Model m("friction_drive");
   m.AddInput("torque", "N m", "motor torque", -0.5, 0.5);
   models::BlockOptions rotational;
@@ -74,13 +78,25 @@ models::StateSpaceModel DriveModel() {
   coulomb.numbers["steepness"] = {kSteepness};  // fixed, not a parameter
   m.AddBlock("coulomb", models::kCoulombFriction, coulomb, {"load.qd"}, {"-torque"});
   m.AddOutput("load.q");
-  return m.Build();
+  return m;
 }
 
 }  // namespace
 
 int main() {
-  const models::StateSpaceModel model = DriveModel();
+  // Multiple shooting with continuity as residuals, solved by Ceres, nodes guessed from the data.
+  est::EstimationSpec spec;
+  spec.method = "multiple_shooting";
+  spec.solver = "ceres";
+  spec.step.substeps = 2;
+  spec.multiple_shooting.segment_length = 20;
+  spec.multiple_shooting.continuity_weight = 1e3;
+  spec.node_guess = "data";
+  // qd = dq/dt: a problem file infers this from the kinematics, MakeProblem takes the spec as
+  // given.
+  spec.equation_error.differentiate["load.qd"] = "load.q";
+  const est::Problem problem = est::MakeProblem("friction_drive", DriveModel(), spec);
+  const models::StateSpaceModel& model = problem.built;
   Eigen::VectorXd truth = model.ParameterValues();
   for (const TrueValue& t : kTruth) truth[model.ParameterIndex(t.name)] = t.value;
 
@@ -88,7 +104,7 @@ int main() {
   const unsigned seed = Seed();
   std::cout << "seed " << seed << " (override with GRAYBOX_SEED)\n";
   std::mt19937 rng(seed);
-  est::ExperimentData ex;
+  est::Experiment ex;
   ex.name = "multisine";
   ex.dt = kDt;
   ex.u.resize(kSamples, 1);
@@ -96,51 +112,42 @@ int main() {
     const double t = k * kDt;
     ex.u(k, 0) = 0.25 * std::sin(2.1 * t) + 0.12 * std::sin(5.3 * t) + 0.06 * std::sin(11.0 * t);
   }
-  ex.x0 = Eigen::Vector2d::Zero();
-  ex.y = est::SimulateRk4(model, ex.x0, ex.u, truth, kDt, 4).y;
+  const Eigen::Vector2d x0 = Eigen::Vector2d::Zero();
+  ex.y = est::SimulateRk4(model, x0, ex.u, truth, kDt, 4).y;
   std::normal_distribution<double> noise(0.0, kNoise);
   for (int k = 0; k < kSamples; ++k) ex.y(k, 0) += noise(rng);
-  // Node initialisation from the data: q measured, qd by central differences.
-  ex.state_guess.resize(kSamples, 2);
-  ex.state_guess.col(0) = ex.y.col(0);
-  ex.state_guess.col(1) = est::CentralDifference(ex.y, kDt).col(0);
+  // The node guess Fit takes with node_guess = "data": q measured, qd by central differences.
+  const Eigen::MatrixXd guess = est::StatesFromData(problem, ex);
   std::printf("speed range [%.2f, %.2f] rad/s, torque range [%.2f, %.2f] N m\n",
-              ex.state_guess.col(1).minCoeff(), ex.state_guess.col(1).maxCoeff(), ex.u.minCoeff(),
-              ex.u.maxCoeff());
+              guess.col(1).minCoeff(), guess.col(1).maxCoeff(), ex.u.minCoeff(), ex.u.maxCoeff());
 
-  // Multiple shooting with continuity as residuals, solved by Ceres.
-  est::MultipleShootingOptions options;
-  options.segment_length = 20;
-  options.step.substeps = 2;
-  options.continuity_as_constraints = false;
-  options.continuity_weight = 1e3;
-  const est::ShootingProblem problem = est::BuildMultipleShooting(model, {ex}, options);
-  std::cout << "multiple shooting: " << problem.nlp.NumVariables() << " variables, "
-            << problem.nlp.NumResiduals() << " residuals (outputs and continuity)\n";
-  const est::SolverResult result = est::SolveWithCeres(problem.nlp);
-  std::cout << result.BriefReport() << "\n";
-  if (!result.success) {
-    std::cout << result.FullReport() << "\nFAIL: the solver did not converge\n";
+  const est::FitResult fit =
+      est::Fit(problem, {est::MakeSplit("multisine", est::SplitRole::kEstimation, ex, x0)});
+  std::cout << fit.BriefReport() << "\n"
+            << fit.num_variables << " variables, " << fit.num_residuals
+            << " residuals (outputs and continuity)\n";
+  if (!fit.solver_result.success) {
+    std::cout << fit.FullReport() << "\nFAIL: the solver did not converge\n";
     return 1;
   }
-
-  const Eigen::VectorXd p = problem.Parameters(result.w);
-  const est::UncertaintyReport uncertainty = est::SimulationCovariance(
-      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, options.step);
-  std::cout << uncertainty.BriefReport() << "\n";
-  for (const std::string& w : uncertainty.warnings) std::cout << "  note: " << w << "\n";
+  if (fit.has_uncertainty) {
+    std::cout << fit.uncertainty.BriefReport() << "\n";
+    for (const std::string& w : fit.uncertainty.warnings) std::cout << "  note: " << w << "\n";
+  } else {
+    std::cout << "no covariance: " << fit.uncertainty_error << "\n";
+  }
 
   bool ok = true;
   std::printf("\n%-11s %-10s %9s %9s %9s %21s %9s\n", "parameter", "unit", "start", "truth",
               "estimate", "95% interval", "rel.err");
   for (int i = 0; i < model.NumParameters(); ++i) {
-    const est::ParameterEstimate& e = uncertainty.parameters[i];
+    const est::FitParameter& e = fit.parameters[i];  // the model's order
     const double rel = (e.value - truth[i]) / truth[i];
     const bool within = std::fabs(rel) <= kTolerance;
     ok = ok && within;
     std::printf("%-11s %-10s %9.5f %9.5f %9.5f [%9.5f, %9.5f] %+8.3f%% %s\n", e.name.c_str(),
-                e.unit.c_str(), model.parameters[i].value, truth[i], e.value, e.ci_low, e.ci_high,
-                100.0 * rel, within ? "ok" : "FAIL");
+                e.unit.c_str(), e.initial, truth[i], e.value, e.ci_low, e.ci_high, 100.0 * rel,
+                within ? "ok" : "FAIL");
   }
   std::printf("\ncheck: |relative error| <= %.0f%% on every parameter: %s\n", 100.0 * kTolerance,
               ok ? "passed" : "FAILED");

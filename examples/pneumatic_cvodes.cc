@@ -28,12 +28,20 @@
 // tight tolerances from rest with 300 kPa in both chambers; noise of 2 mrad on q and 1 kPa on
 // each pressure (seed printed, overridable with GRAYBOX_SEED).
 //
-// Estimation problem. Single shooting (estimators/single_shooting.h):
+// Estimation problem. Single shooting (estimators/formulations/single_shooting.h):
 //     minimise over theta = (alpha, b)   1/2 sum_k |W (y_k - h(x_k(theta)))|^2,
 //     x_0 known, x_{k+1} = CVODES solution over [t_k, t_k+1] with u_k held,
 // W = 1 / std(y) per channel, the residual Jacobian from the CVODES forward sensitivities, solved
-// by Ceres (Levenberg-Marquardt). The 95 % intervals come from the same Jacobian at the solution
-// (Gauss-Newton covariance, estimators/covariance.h).
+// by Ceres (Levenberg-Marquardt).
+//
+// The fit goes through estimators::Fit (fit/fit.h): MakeProblem with EstimationSpec method
+// "single_shooting", solver "ceres", the CVODES integrator (`integrator`, tolerances kFitRtol)
+// and multiple_shooting.fix_initial_state = true (single shooting reads its x0 setting from
+// there, as a problem file's [estimation.multiple_shooting] does), MakeSplit the record with its
+// known x0. For single shooting Fit's 95 % intervals are the output-error covariance of the
+// whole-record simulation by the same CVODES integrator (its sensitivities at the solution,
+// Gauss-Newton with one noise variance per output channel; SimulationCovariance,
+// analysis/covariance.h); the fixed x0 is not differentiated.
 //
 // Check. Both estimates within kTolerance (2 %) of the truth; exit code 0 when they are.
 #include <algorithm>
@@ -43,15 +51,12 @@
 #include <iostream>
 #include <iterator>
 #include <random>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/covariance.h"
-#include "graybox/estimators/integrator_factory.h"
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/single_shooting.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/fit/fit.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/integrators/integrators.h"
 #include "graybox/models/model.h"
 
 namespace {
@@ -81,7 +86,7 @@ unsigned Seed() {
   return env ? static_cast<unsigned>(std::strtoul(env, nullptr, 10)) : 11u;
 }
 
-models::StateSpaceModel ArmModel() {
+models::Model ArmModel() {
   models::Model m("pneumatic_arm");
   m.AddInput("u1", "V", "valve 1 command", 0.0, 10.0);
   m.AddInput("u2", "V", "valve 2 command", 0.0, 10.0);
@@ -93,7 +98,7 @@ models::StateSpaceModel ArmModel() {
     m.Fix(p.name);
   }
   for (const Value& v : kTruth) m.Free(v.name);
-  return m.Build();
+  return m;
 }
 
 // CVODES with absolute tolerances scaled to each state's magnitude: q [rad], qd [rad/s],
@@ -107,9 +112,9 @@ est::IntegratorOptions Cvodes(double rtol) {
 }
 
 // The staircase experiment without its measurements: kLevels held kHold samples each (and the
-// last level for one more sample), u2 = 10 - u1, starting hanging at rest at 300 kPa.
-est::ExperimentData Staircase() {
-  est::ExperimentData ex;
+// last level for one more sample), u2 = 10 - u1.
+est::Experiment Staircase() {
+  est::Experiment ex;
   ex.name = "staircase";
   ex.dt = kDt;
   const int levels = static_cast<int>(std::size(kLevels));
@@ -119,14 +124,23 @@ est::ExperimentData Staircase() {
     ex.u(k, 0) = kLevels[std::min(k / kHold, levels - 1)];
     ex.u(k, 1) = 10.0 - ex.u(k, 0);
   }
-  ex.x0 = Eigen::Vector4d(kPi / 2.0, 0.0, 300.0, 300.0);
   return ex;
 }
+
+// Its initial state (known): hanging at rest at 300 kPa.
+const Eigen::Vector4d kHangingAtRest(kPi / 2.0, 0.0, 300.0, 300.0);
 
 }  // namespace
 
 int main() {
-  const models::StateSpaceModel model = ArmModel();
+  // Single shooting through CVODES from the known x0, solved by Ceres.
+  est::EstimationSpec spec;
+  spec.method = "single_shooting";
+  spec.solver = "ceres";
+  spec.integrator = Cvodes(kFitRtol);
+  spec.multiple_shooting.fix_initial_state = true;
+  const est::Problem problem = est::MakeProblem("pneumatic_arm", ArmModel(), spec);
+  const models::StateSpaceModel& model = problem.built;
   std::cout << "model '" << model.name << "': " << model.NumStates() << " states, "
             << model.NumParameters() << " parameters (2 free), stiff = " << std::boolalpha
             << model.stiff << "\n";
@@ -137,15 +151,15 @@ int main() {
   const unsigned seed = Seed();
   std::cout << "seed " << seed << " (override with GRAYBOX_SEED)\n";
   std::mt19937 rng(seed);
-  est::ExperimentData ex = Staircase();
+  est::Experiment ex = Staircase();
   const est::Trajectory sim =
-      est::MakeIntegrator(model, kDt, Cvodes(kTruthRtol))->Simulate(ex.x0, ex.u, truth);
+      est::MakeIntegrator(model, kDt, Cvodes(kTruthRtol))->Simulate(kHangingAtRest, ex.u, truth);
   std::cout << "data: " << sim.summary.BriefReport() << "\n";
   if (!sim.ok) return 1;
   std::printf("motion: q in [%.2f, %.2f] rad, p1 in [%.0f, %.0f] kPa, p2 in [%.0f, %.0f] kPa\n",
               sim.x.col(0).minCoeff(), sim.x.col(0).maxCoeff(), sim.x.col(2).minCoeff(),
               sim.x.col(2).maxCoeff(), sim.x.col(3).minCoeff(), sim.x.col(3).maxCoeff());
-  const est::Trajectory rk4 = est::SimulateRk4(model, ex.x0, ex.u, truth, kDt, 1);
+  const est::Trajectory rk4 = est::SimulateRk4(model, kHangingAtRest, ex.u, truth, kDt, 1);
   if (rk4.ok) {
     std::printf("RK4 with one step per sample instead: off by up to %.2g rad and %.2g kPa\n",
                 (rk4.x.col(0) - sim.x.col(0)).cwiseAbs().maxCoeff(),
@@ -161,33 +175,31 @@ int main() {
     ex.y(k, 2) += kPressureNoise * noise(rng);
   }
 
-  // Single shooting through CVODES, solved by Ceres.
-  est::SingleShootingOptions options;
-  options.integrator = Cvodes(kFitRtol);
-  const est::ShootingProblem problem = est::BuildSingleShooting(model, {ex}, options);
-  const est::SolverResult result = est::SolveWithCeres(problem.nlp);
-  std::cout << result.BriefReport() << "\n";
-  if (!result.success) {
-    std::cout << result.FullReport() << "\nFAIL: the solver did not converge\n";
+  const est::FitResult fit = est::Fit(
+      problem, {est::MakeSplit("staircase", est::SplitRole::kEstimation, ex, kHangingAtRest)});
+  std::cout << fit.BriefReport() << "\n";
+  if (!fit.solver_result.success) {
+    std::cout << fit.FullReport() << "\nFAIL: the solver did not converge\n";
     return 1;
   }
-  const est::UncertaintyReport uncertainty =
-      est::NlpCovariance(problem.nlp, result.w, problem.parameters, 0.0);
-  std::cout << uncertainty.BriefReport() << "\n";
-  for (const std::string& w : uncertainty.warnings) std::cout << "  note: " << w << "\n";
+  if (fit.has_uncertainty) {
+    std::cout << fit.uncertainty.BriefReport() << "\n";
+    for (const std::string& w : fit.uncertainty.warnings) std::cout << "  note: " << w << "\n";
+  } else {
+    std::cout << "no covariance: " << fit.uncertainty_error << "\n";
+  }
 
   bool ok = true;
   std::printf("\n%-12s %-12s %8s %8s %9s %21s %9s\n", "parameter", "unit", "start", "truth",
               "estimate", "95% interval", "rel.err");
   for (const Value& t : kTruth) {
-    const int i = model.ParameterIndex(t.name);
-    const est::ParameterEstimate& e = uncertainty.parameters[i];
+    const est::FitParameter& e = fit.Parameter(t.name);
     const double rel = (e.value - t.value) / t.value;
     const bool within = std::fabs(rel) <= kTolerance;
     ok = ok && within;
     std::printf("%-12s %-12s %8.5f %8.5f %9.5f [%9.5f, %9.5f] %+8.3f%% %s\n", e.name.c_str(),
-                e.unit.c_str(), model.parameters[i].value, t.value, e.value, e.ci_low, e.ci_high,
-                100.0 * rel, within ? "ok" : "FAIL");
+                e.unit.c_str(), e.initial, t.value, e.value, e.ci_low, e.ci_high, 100.0 * rel,
+                within ? "ok" : "FAIL");
   }
   std::printf("\ncheck: |relative error| <= %.0f%% on every free parameter: %s\n",
               100.0 * kTolerance, ok ? "passed" : "FAILED");

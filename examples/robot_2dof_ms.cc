@@ -31,6 +31,13 @@
 //     subject to                 s_{j+1} = Phi(end of segment j; theta, s_j),
 // solved by Ipopt with the exact Hessian.
 //
+// The fit goes through estimators::Fit (fit/fit.h): MakeProblem wraps the model with only the
+// unknowns free and the EstimationSpec above (method "multiple_shooting", step.substeps = 1,
+// segment_length = 10; Ipopt is the default solver for shooting), MakeSplit the record and its
+// x0; Fit formulates, solves, and computes the 95% intervals as the Gauss-Newton covariance of
+// the shooting NLP with the nodes eliminated along the continuity constraints (NlpCovariance,
+// analysis/covariance.h). The table is built from fit.parameters.
+//
 // Check. Every estimate within kTolerance (2 %) of the truth; exit code 0 when all are.
 #include <cmath>
 #include <cstdio>
@@ -40,10 +47,8 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/covariance.h"
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/fit/fit.h"
+#include "graybox/estimators/integrators/integrators.h"
 #include "graybox/models/friction.h"
 #include "graybox/models/model.h"
 #include "graybox/models/robot_blocks.h"
@@ -123,14 +128,19 @@ models::Model ArmModel() {
 }  // namespace
 
 int main() {
-  const models::StateSpaceModel model = ArmModel().Build();
+  est::EstimationSpec spec;
+  spec.method = "multiple_shooting";  // solver: Ipopt (the default for shooting)
+  spec.step.substeps = kSubsteps;
+  spec.multiple_shooting.segment_length = 10;
+  const est::Problem problem = est::MakeProblem("planar_arm", ArmModel(), spec);
+  const models::StateSpaceModel& model = problem.built;
   Eigen::VectorXd truth = model.ParameterValues();
   for (const Value& v : kTruth) truth[model.ParameterIndex(v.name)] = v.value;
 
   const unsigned seed = Seed();
   std::cout << "seed " << seed << " (override with GRAYBOX_SEED)\n";
   std::mt19937 rng(seed);
-  est::ExperimentData ex;
+  est::Experiment ex;
   ex.name = "multisine";
   ex.dt = kDt;
   ex.u.resize(kSamples, 2);
@@ -139,8 +149,8 @@ int main() {
     ex.u(k, 0) = 6.0 * std::sin(1.1 * t) + 3.0 * std::sin(3.7 * t) + 1.0 * std::sin(8.3 * t);
     ex.u(k, 1) = 2.5 * std::sin(1.7 * t) + 1.5 * std::sin(5.3 * t) + 0.5 * std::sin(9.7 * t);
   }
-  ex.x0 = Eigen::Vector4d(-kPi / 2.0, 0.0, 0.0, 0.0);  // hanging at rest
-  const est::Trajectory sim = est::SimulateRk4(model, ex.x0, ex.u, truth, kDt, kTruthSubsteps);
+  const Eigen::Vector4d x0(-kPi / 2.0, 0.0, 0.0, 0.0);  // hanging at rest
+  const est::Trajectory sim = est::SimulateRk4(model, x0, ex.u, truth, kDt, kTruthSubsteps);
   ex.y = sim.y;
   std::normal_distribution<double> noise(0.0, kNoise);
   for (int k = 0; k < kSamples; ++k) {
@@ -150,37 +160,33 @@ int main() {
               sim.x.col(0).minCoeff(), sim.x.col(0).maxCoeff(), sim.x.col(1).minCoeff(),
               sim.x.col(1).maxCoeff(), sim.x.rightCols(2).cwiseAbs().maxCoeff());
 
-  est::MultipleShootingOptions options;
-  options.segment_length = 10;
-  options.step.substeps = kSubsteps;
-  const est::ShootingProblem problem = est::BuildMultipleShooting(model, {ex}, options);
-  std::cout << "multiple shooting: " << problem.nlp.NumVariables() << " variables, "
-            << problem.nlp.NumConstraints() << " continuity constraints\n";
-  const est::SolverResult result = est::SolveWithIpopt(problem.nlp);
-  std::cout << result.BriefReport() << "\n";
-  if (!result.success) {
-    std::cout << result.FullReport() << "\nFAIL: the solver did not converge\n";
+  const est::FitResult fit =
+      est::Fit(problem, {est::MakeSplit("multisine", est::SplitRole::kEstimation, ex, x0)});
+  std::cout << fit.BriefReport() << "\n"
+            << fit.num_variables << " variables, " << fit.num_constraints
+            << " continuity constraints\n";
+  if (!fit.solver_result.success) {
+    std::cout << fit.FullReport() << "\nFAIL: the solver did not converge\n";
     return 1;
   }
-
-  const Eigen::VectorXd p = problem.Parameters(result.w);
-  const est::UncertaintyReport uncertainty = est::SimulationCovariance(
-      model, {ex}, p, {problem.InitialState(result.w, 0)}, problem.output_weights, options.step);
-  std::cout << uncertainty.BriefReport() << "\n";
-  for (const std::string& w : uncertainty.warnings) std::cout << "  note: " << w << "\n";
+  if (fit.has_uncertainty) {
+    std::cout << fit.uncertainty.BriefReport() << "\n";
+    for (const std::string& w : fit.uncertainty.warnings) std::cout << "  note: " << w << "\n";
+  } else {
+    std::cout << "no covariance: " << fit.uncertainty_error << "\n";
+  }
 
   bool ok = true;
   std::printf("\n%-13s %-10s %7s %7s %9s %21s %9s\n", "parameter", "unit", "start", "truth",
               "estimate", "95% interval", "rel.err");
   for (const Value& v : kTruth) {
-    const int i = model.ParameterIndex(v.name);
-    const est::ParameterEstimate& e = uncertainty.parameters[i];
+    const est::FitParameter& e = fit.Parameter(v.name);
     const double rel = (e.value - v.value) / v.value;
     const bool within = std::fabs(rel) <= kTolerance;
     ok = ok && within;
     std::printf("%-13s %-10s %7.3f %7.3f %9.5f [%9.5f, %9.5f] %+8.3f%% %s\n", e.name.c_str(),
-                e.unit.c_str(), model.parameters[i].value, v.value, e.value, e.ci_low, e.ci_high,
-                100.0 * rel, within ? "ok" : "FAIL");
+                e.unit.c_str(), e.initial, v.value, e.value, e.ci_low, e.ci_high, 100.0 * rel,
+                within ? "ok" : "FAIL");
   }
   std::printf("\ncheck: |relative error| <= %.0f%% on every free parameter: %s\n",
               100.0 * kTolerance, ok ? "passed" : "FAILED");

@@ -7,6 +7,7 @@
 
 #include "app.h"
 #include "graybox/models/block.h"
+#include "graybox/util/did_you_mean.h"
 
 namespace graybox::app {
 
@@ -30,7 +31,7 @@ void CheckName(const std::string& file, const std::string& name, int line,
     if (p.name == name) return;
     names.push_back(p.name);
   }
-  const std::string hint = models::DidYouMean(name, names);
+  const std::string hint = util::DidYouMean(name, names);
   throw ProblemFileError(At(file, line),
                          "'" + name + "' is not a parameter of model '" + model.name + "'" +
                              (hint.empty() ? "" : "; did you mean '" + hint + "'?"));

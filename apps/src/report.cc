@@ -71,29 +71,32 @@ std::string ReportJson(const RunReport& report) {
       {"name", problem.name},
       {"description", problem.description}};
   j["method"] = report.command == "fit" ? problem.estimation.method : "simulation";
-  j["solver"] = report.has_solver ? report.solver.solver : "";
+  j["solver"] = report.has_fit ? report.fit.solver : "";
   j["seed"] = report.seed;
   Json status;
   status["result"] = report.status;
   status["exit_code"] = report.exit_code;
   status["message"] = report.message;
-  if (report.has_solver) {
-    status["solver_success"] = report.solver.success;
-    status["solver_status"] = report.solver.status;
-    status["solver_message"] = report.solver.message;
-    status["iterations"] = report.solver.iterations;
-    status["cost"] = report.solver.cost;
-    status["constraint_violation"] = report.solver.constraint_violation;
-    status["solver_seconds"] = report.solver.seconds;
-    status["brief_report"] = report.solver.BriefReport();
+  if (report.has_fit) {
+    status["solver_success"] = report.fit.solver_result.success;
+    status["solver_status"] = report.fit.solver_result.status;
+    status["solver_status_code"] =
+        estimators::SolverStatusName(report.fit.solver_result.status_code);
+    status["solution_usable"] = report.fit.solver_result.IsSolutionUsable();
+    status["solver_message"] = report.fit.solver_result.message;
+    status["iterations"] = report.fit.solver_result.iterations;
+    status["cost"] = report.fit.solver_result.cost;
+    status["constraint_violation"] = report.fit.solver_result.constraint_violation;
+    status["solver_seconds"] = report.fit.solver_result.seconds;
+    status["brief_report"] = report.fit.solver_result.BriefReport();
   }
   j["status"] = status;
   if (report.command == "fit") {
     Json f;
-    for (const auto& [k, v] : report.formulation) f[k] = v;
-    f["variables"] = report.num_variables;
-    f["constraints"] = report.num_constraints;
-    f["residuals"] = report.num_residuals;
+    for (const auto& [k, v] : report.fit.formulation) f[k] = v;
+    f["variables"] = report.fit.num_variables;
+    f["constraints"] = report.fit.num_constraints;
+    f["residuals"] = report.fit.num_residuals;
     j["formulation"] = f;
   } else {
     j["parameter_file"] = report.parameter_file;
@@ -112,8 +115,8 @@ std::string ReportJson(const RunReport& report) {
     if (report.initial_parameters.size() > i) p["initial"] = report.initial_parameters[i];
     p["lower"] = mp.lower;
     p["upper"] = mp.upper;
-    if (report.has_uncertainty) {
-      for (const auto& e : report.uncertainty.parameters) {
+    if (report.fit.has_uncertainty) {
+      for (const auto& e : report.fit.uncertainty.parameters) {
         if (e.name != mp.name) continue;
         p["std_error"] = e.std_error;
         p["relative_std_percent"] =
@@ -127,12 +130,22 @@ std::string ReportJson(const RunReport& report) {
   j["parameters"] = params;
   if (report.command == "fit") {
     Json u;
-    if (report.has_uncertainty) {
-      const auto& r = report.uncertainty;
+    if (report.fit.has_uncertainty) {
+      const auto& r = report.fit.uncertainty;
       u["residual_variance"] = r.residual_variance;
       u["num_residuals"] = r.num_residuals;
       u["condition_number"] = r.condition_number;
       u["warnings"] = r.warnings;
+      u["unidentifiable"] = r.unidentifiable;
+      Json noise = Json::array();
+      for (const estimators::ChannelNoise& c : r.channels) {
+        noise.push_back({{"channel", c.name},
+                         {"unit", c.unit},
+                         {"sigma", c.sigma},
+                         {"weight", c.weight},
+                         {"num_residuals", c.num_residuals}});
+      }
+      u["noise"] = noise;
       Json names = Json::array();
       for (int i : r.free_indices) names.push_back(m.parameters[i].name);
       u["free_parameters"] = names;
@@ -145,15 +158,15 @@ std::string ReportJson(const RunReport& report) {
       u["correlation"] = corr;
       u["brief_report"] = r.BriefReport();
     } else {
-      u["error"] = report.uncertainty_error;
+      u["error"] = report.fit.uncertainty_error;  // "the covariance could not be computed because"
     }
     j["uncertainty"] = u;
     Json states = Json::object();
-    for (const auto& [split, x] : report.estimated_initial_states) states[split] = StateJson(m, x);
+    for (const auto& [split, x] : report.fit.initial_states) states[split] = StateJson(m, x);
     j["initial_states"] = states;
   }
   Json metrics = Json::object();
-  for (const SplitEvaluation& e : report.evaluations) {
+  for (const estimators::SplitEvaluation& e : report.evaluations) {
     Json s;
     s["data"] = e.data_name;
     s["role"] = estimators::SplitRoleName(e.role);
@@ -168,13 +181,14 @@ std::string ReportJson(const RunReport& report) {
       Json n;
       n["steps"] = e.n_step.steps;
       n["starts"] = static_cast<int>(e.n_step.starts.size());
-      n["nrms"] = e.n_step.nrms;
+      n["nrms"] = e.n_step.nrms;  // seed 000 eq. 7: the mean over steps 1..N
+      n["nrms_at_step_n"] = e.n_step.NrmsAtStep(e.n_step.steps);  // step N alone
       Json channels = Json::object();
       for (std::size_t c = 0; c < e.n_step.channels.size(); ++c) {
         channels[m.states[static_cast<std::size_t>(e.n_step.channels[c])].name] =
             e.n_step.channel_nrms[static_cast<Eigen::Index>(c)];
       }
-      n["channels"] = channels;
+      n["channels"] = channels;  // the scored states ([metrics] n_step_channels) and their NRMS
       s["n_step"] = n;
     }
     metrics[e.name] = s;
@@ -187,11 +201,21 @@ std::string ReportJson(const RunReport& report) {
     }
     j["derivative_checks"] = checks;
   }
-  if (report.has_solver) j["solver_log"] = report.solver.log;
+  if (report.has_fit) {
+    Json history = Json::array();
+    for (const estimators::IterationSummary& it : report.fit.solver_result.history) {
+      history.push_back({{"iteration", it.iteration},
+                         {"cost", it.cost},
+                         {"constraint_violation", it.constraint_violation},
+                         {"optimality", it.optimality},
+                         {"seconds", it.seconds}});
+    }
+    j["solver_history"] = history;
+  }
   return j.dump(2) + "\n";
 }
 
-std::string TraceCsv(const SplitEvaluation& e, const models::StateSpaceModel& model) {
+std::string TraceCsv(const estimators::SplitEvaluation& e, const models::StateSpaceModel& model) {
   std::ostringstream os;
   os << "time";
   for (const auto& o : model.outputs) os << "," << o.name << ".measured," << o.name << ".simulated";
@@ -219,7 +243,7 @@ std::vector<std::string> WriteOutputs(const std::string& dir, const std::string&
   fs::create_directories(root / "traces");
   std::vector<std::string> written;
   const models::StateSpaceModel& m = report.problem->built;
-  for (const SplitEvaluation& e : report.evaluations) {
+  for (const estimators::SplitEvaluation& e : report.evaluations) {
     const std::string base = SafeName(e.name);
     const fs::path outputs = root / "plots" / (base + "_outputs.svg");
     WriteFileAtomically(outputs.string(), PlotOutputs(e, m));

@@ -22,26 +22,16 @@ struct RunReport {
   int exit_code = kExitSuccess;
   std::string message;
   unsigned seed = 0;
-  // Fit.
-  bool has_solver = false;
-  estimators::SolverResult solver;
-  /// Formulation summary: key -> value, in order.
-  std::vector<std::pair<std::string, std::string>> formulation;
-  int num_variables = 0;
-  int num_constraints = 0;
-  int num_residuals = 0;
-  Eigen::VectorXd initial_parameters;
-  Eigen::VectorXd parameters;
-  bool has_uncertainty = false;
-  estimators::UncertaintyReport uncertainty;
-  std::string uncertainty_error;
-  /// Estimated initial states by split (shooting and collocation).
-  std::map<std::string, Eigen::VectorXd> estimated_initial_states;
+  /// Fit: the library's result (solver, parameters, covariance, initial states, timings).
+  bool has_fit = false;
+  estimators::FitResult fit;
   // Simulate.
   std::string parameter_file;
-  // Both.
-  std::vector<SplitEvaluation> evaluations;
-  std::vector<DerivativeCheckLine> derivative_checks;
+  // Both: parameter values before and after, the split evaluations, checks and timings.
+  Eigen::VectorXd initial_parameters;
+  Eigen::VectorXd parameters;
+  std::vector<estimators::SplitEvaluation> evaluations;
+  std::vector<estimators::DerivativeCheckLine> derivative_checks;
   std::vector<std::pair<std::string, double>> seconds;  // phase -> wall time
 };
 
@@ -49,7 +39,7 @@ struct RunReport {
 std::string ReportJson(const RunReport& report);
 /// The measured and simulated outputs of a split as CSV (time, then measured and simulated per
 /// output).
-std::string TraceCsv(const SplitEvaluation& e, const models::StateSpaceModel& model);
+std::string TraceCsv(const estimators::SplitEvaluation& e, const models::StateSpaceModel& model);
 
 /// Writes the JSON as `json_name`, the plots in DIR/plots and the traces in DIR/traces, each
 /// atomically. Creates DIR when needed. Returns the paths written.

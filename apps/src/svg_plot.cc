@@ -211,7 +211,8 @@ std::string Fit(const estimators::MetricReport& report, std::size_t j) {
 
 }  // namespace
 
-std::string PlotOutputs(const SplitEvaluation& e, const models::StateSpaceModel& model) {
+std::string PlotOutputs(const estimators::SplitEvaluation& e,
+                        const models::StateSpaceModel& model) {
   std::vector<Panel> panels;
   for (int j = 0; j < model.NumOutputs(); ++j) {
     Panel p;
@@ -225,7 +226,8 @@ std::string PlotOutputs(const SplitEvaluation& e, const models::StateSpaceModel&
                 e.time, panels);
 }
 
-std::string PlotResiduals(const SplitEvaluation& e, const models::StateSpaceModel& model) {
+std::string PlotResiduals(const estimators::SplitEvaluation& e,
+                          const models::StateSpaceModel& model) {
   std::vector<Panel> panels;
   for (int j = 0; j < model.NumOutputs(); ++j) {
     Panel p;
@@ -239,7 +241,7 @@ std::string PlotResiduals(const SplitEvaluation& e, const models::StateSpaceMode
       e.time, panels);
 }
 
-std::string PlotEquation(const SplitEvaluation& e) {
+std::string PlotEquation(const estimators::SplitEvaluation& e) {
   std::vector<Panel> panels;
   for (std::size_t j = 0; j < e.equation_channels.size(); ++j) {
     const int c = static_cast<int>(j);

@@ -1,4 +1,5 @@
 #include "graybox/models/block.h"
+#include "graybox/util/did_you_mean.h"
 
 #include <algorithm>
 #include <stdexcept>
@@ -57,7 +58,7 @@ std::unique_ptr<Block> BlockRegistry::Create(const std::string& type,
                                              const BlockOptions& options) const {
   auto it = entries_.find(type);
   if (it == entries_.end()) {
-    const std::string hint = DidYouMean(type, Types());
+    const std::string hint = util::DidYouMean(type, Types());
     throw std::invalid_argument("unknown block type '" + type + "'" +
                                 (hint.empty() ? "" : "; did you mean '" + hint + "'?"));
   }
@@ -78,41 +79,13 @@ const BlockOptions& BlockRegistry::TestOptions(const std::string& type) const {
   return it->second.test_options;
 }
 
-namespace {
-std::size_t EditDistance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
-    }
-    std::swap(prev, cur);
-  }
-  return prev[b.size()];
-}
-}  // namespace
-
-std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates) {
-  std::string best;
-  std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;
-  for (const auto& c : candidates) {
-    const std::size_t d = EditDistance(word, c);
-    if (d < best_distance) {
-      best_distance = d;
-      best = c;
-    }
-  }
-  return best;
-}
-
 void CheckOptionKeys(const std::string& type, const BlockOptions& options,
                      const std::vector<std::string>& known) {
   auto check = [&](const std::string& key) {
     if (std::find(known.begin(), known.end(), key) != known.end()) return;
     std::string list;
     for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-    const std::string hint = DidYouMean(key, known);
+    const std::string hint = util::DidYouMean(key, known);
     throw std::invalid_argument("block '" + type + "': unknown option '" + key + "'" +
                                 (hint.empty() ? "" : "; did you mean '" + hint + "'?") +
                                 " (expected one of: " + (list.empty() ? "none" : list) + ")");

@@ -1,4 +1,5 @@
 #include "graybox/models/inverse_dynamics_model.h"
+#include "graybox/util/did_you_mean.h"
 
 #include <stdexcept>
 #include <utility>
@@ -21,7 +22,7 @@ int InverseDynamicsModel::ParameterIndex(const std::string& n) const {
     if (parameters[i].name == n) return i;
     names.push_back(parameters[i].name);
   }
-  const std::string hint = DidYouMean(n, names);
+  const std::string hint = util::DidYouMean(n, names);
   throw std::invalid_argument("inverse-dynamics model '" + name + "': unknown parameter '" + n +
                               "'" + (hint.empty() ? "" : "; did you mean '" + hint + "'?"));
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "graybox/models/block.h"
+#include "graybox/util/did_you_mean.h"
 
 namespace graybox::models::internal {
 
@@ -99,7 +100,7 @@ inline std::string WordOption(const std::string& type, const BlockOptions& optio
   }
   std::string list;
   for (const auto& a : allowed) list += (list.empty() ? "'" : ", '") + a + "'";
-  const std::string hint = DidYouMean(it->second, allowed);
+  const std::string hint = util::DidYouMean(it->second, allowed);
   throw std::invalid_argument("block '" + type + "': option '" + key + "' expected one of " + list +
                               ", got '" + it->second + "'" +
                               (hint.empty() ? "" : "; did you mean '" + hint + "'?"));

@@ -1,6 +1,7 @@
 // The mechanics, control and signal blocks; equations, units, parameters and the smoothing are
 // documented in include/graybox/models/mechanics.h.
 #include "graybox/models/mechanics.h"
+#include "graybox/util/did_you_mean.h"
 
 #include <cmath>
 #include <limits>
@@ -51,7 +52,7 @@ bool Rotational(const std::string& type, const BlockOptions& options) {
   const std::string motion = Word(options, "motion", "prismatic");
   if (motion == "prismatic") return false;
   if (motion == "rotational") return true;
-  const std::string hint = DidYouMean(motion, {"prismatic", "rotational"});
+  const std::string hint = util::DidYouMean(motion, {"prismatic", "rotational"});
   throw std::invalid_argument(
       "block '" + type + "': option 'motion' expected 'prismatic' or 'rotational', got '" + motion +
       "'" + (hint.empty() ? "" : "; did you mean '" + hint + "'?"));

@@ -1,4 +1,5 @@
 #include "graybox/models/model.h"
+#include "graybox/util/did_you_mean.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,7 +20,7 @@ std::string Names(const std::vector<std::string>& names) {
 }
 
 std::string Suggest(const std::string& name, const std::vector<std::string>& known) {
-  const std::string hint = DidYouMean(name, known);
+  const std::string hint = util::DidYouMean(name, known);
   return hint.empty() ? "" : "; did you mean '" + hint + "'?";
 }
 

@@ -9,6 +9,7 @@
 
 #include "builtin_blocks.h"
 #include "graybox/models/networks.h"
+#include "graybox/util/did_you_mean.h"
 
 namespace graybox::models {
 
@@ -18,7 +19,7 @@ Activation ParseActivation(const std::string& name) {
   if (name == "tanh") return Activation::kTanh;
   if (name == "relu") return Activation::kRelu;
   if (name == "softplus") return Activation::kSoftplus;
-  const std::string hint = DidYouMean(name, {"tanh", "relu", "softplus"});
+  const std::string hint = util::DidYouMean(name, {"tanh", "relu", "softplus"});
   throw std::invalid_argument("unknown activation '" + name + "'" +
                               (hint.empty() ? "" : "; did you mean '" + hint + "'?") +
                               " (expected one of: tanh, relu, softplus)");

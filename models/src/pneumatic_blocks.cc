@@ -12,6 +12,7 @@
 
 #include "builtin_blocks.h"
 #include "graybox/models/pneumatics.h"
+#include "graybox/util/did_you_mean.h"
 
 namespace graybox::models::internal {
 namespace {
@@ -118,7 +119,7 @@ std::string WordOption(const std::string& type, const BlockOptions& options, con
   for (const auto& a : allowed) {
     if (a == it->second) return a;
   }
-  const std::string hint = DidYouMean(it->second, allowed);
+  const std::string hint = util::DidYouMean(it->second, allowed);
   throw std::invalid_argument("block '" + type + "': option '" + key + "' expected one of " +
                               Join(allowed) + ", got '" + it->second + "'" +
                               (hint.empty() ? "" : "; did you mean '" + hint + "'?"));

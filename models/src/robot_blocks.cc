@@ -3,6 +3,7 @@
 // space, acceleration, inverse dynamics; plain chain or roblue KUKA) from the templates of
 // rigid_body_dynamics.h, regressor.h and kuka_kr300.h.
 #include "graybox/models/robot_blocks.h"
+#include "graybox/util/did_you_mean.h"
 
 #include <cmath>
 #include <limits>
@@ -477,7 +478,7 @@ std::string Word(const std::string& type, const BlockOptions& options, const std
   }
   std::string list;
   for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-  const std::string hint = DidYouMean(it->second, allowed);
+  const std::string hint = util::DidYouMean(it->second, allowed);
   throw std::invalid_argument("block '" + type + "': option '" + key + "': expected one of " +
                               list + ", got '" + it->second + "'" +
                               (hint.empty() ? "" : "; did you mean '" + hint + "'?"));

@@ -1,7 +1,7 @@
-// Problem files (graybox/estimators/problem_file.h): the shipped EMPS problems and the examples of
-// docs/problem-format.md parse and load; defects are reported with the file, the table, the line
-// and a suggestion: unknown keys, block types and variables, NaN and non-monotone time in data,
-// length mismatches, infeasible bounds, unknown Ipopt options, formulation/solver mismatches.
+// Problem files (graybox/estimators/problem/problem_file.h): the shipped EMPS problems and the
+// examples of docs/problem-format.md parse and load; defects are reported with the file, the table,
+// the line and a suggestion: unknown keys, block types and variables, NaN and non-monotone time in
+// data, length mismatches, infeasible bounds, unknown Ipopt options, formulation/solver mismatches.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/mat_file.h"
-#include "graybox/estimators/problem_file.h"
+#include "graybox/estimators/data/mat_file.h"
+#include "graybox/estimators/problem/problem_file.h"
 #include "test_util.h"
 
 namespace graybox::estimators {
@@ -101,7 +101,7 @@ TEST(ShippedProblems, EmpsClosedLoopFixesTheControllerSettings) {
   const Eigen::MatrixXd qg = ReadMatMatrix(kEmpsData, "qg");
   const Experiment& e = splits[0].experiment;
   // rate = true: the forward difference, so its running sum reproduces qg at the samples.
-  double r = splits[0].x0[m.StateIndex("reference.y")];
+  double r = splits[0].setup.x0[m.StateIndex("reference.y")];
   EXPECT_EQ(r, qg(0, 0));
   for (int k = 0; k < 1000; ++k) r += e.dt * e.u(k, m.InputIndex("qr_rate"));
   EXPECT_NEAR(r, qg(1000, 0), 1e-12);
@@ -186,8 +186,8 @@ TEST_F(GeneratedProblem, LoadsSplitsWithInitialStates) {
   EXPECT_EQ(splits[1].role, SplitRole::kValidation);
   EXPECT_NEAR(splits[0].experiment.dt, apps_testing::kSampleTime, 1e-15);
   // x0 = (first measured position of the split, the given velocity).
-  EXPECT_EQ(splits[1].x0[p.built.StateIndex("load.q")], splits[1].experiment.y(0, 0));
-  EXPECT_EQ(splits[1].x0[p.built.StateIndex("load.qd")], 0.0);
+  EXPECT_EQ(splits[1].setup.x0[p.built.StateIndex("load.q")], splits[1].experiment.y(0, 0));
+  EXPECT_EQ(splits[1].setup.x0[p.built.StateIndex("load.qd")], 0.0);
 }
 
 TEST_F(GeneratedProblem, UnknownKeySuggestsTheClosestAndNamesTheLine) {

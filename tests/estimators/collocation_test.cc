@@ -4,11 +4,11 @@
 #include <cmath>
 #include <random>
 
-#include "graybox/estimators/collocation.h"
-#include "graybox/estimators/integrator_factory.h"
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/formulations/collocation.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/integrators/integrators.h"
+#include "graybox/estimators/solvers/solvers.h"
 #include "test_models.h"
 
 namespace graybox::estimators {
@@ -61,27 +61,28 @@ TEST(Collocation, AgreesWithMultipleShooting) {
   const Eigen::Vector3d p_true(0.4, 4.0, 1.0);
   std::mt19937 rng(kSeed);
   std::normal_distribution<double> g(0.0, 1.0);
-  ExperimentData ex;
+  Experiment ex;
   ex.name = "osc";
   ex.dt = 0.02;
   const int n = 600;
   ex.u.resize(n, 1);
   for (int k = 0; k < n; ++k)
     ex.u(k, 0) = 2.0 * std::sin(0.9 * k * ex.dt) + std::sin(3.1 * k * ex.dt);
-  ex.x0 = Eigen::Vector2d(0.2, 0.0);
-  ex.y = SimulateRk4(truth, ex.x0, ex.u, p_true, ex.dt, 4).y;
+  ExperimentSetup setup;
+  setup.x0 = Eigen::Vector2d(0.2, 0.0);
+  ex.y = SimulateRk4(truth, setup.x0, ex.u, p_true, ex.dt, 4).y;
   for (int k = 0; k < n; ++k) ex.y(k, 0) += 1e-3 * g(rng);
   models::StateSpaceModel start = truth;
   start.parameters[0].value = 0.6;
   start.parameters[1].value = 3.0;
   start.parameters[2].value = 0.5;
-  const CollocationProblem col = BuildCollocation(start, {ex});
+  const CollocationProblem col = BuildCollocation(start, {ex}, {setup});
   const SolverResult rc = SolveWithIpopt(col.nlp);
   ASSERT_TRUE(rc.success) << rc.FullReport();
   MultipleShootingOptions ms_options;
   ms_options.segment_length = 10;
   ms_options.step.substeps = 4;
-  const ShootingProblem ms = BuildMultipleShooting(start, {ex}, ms_options);
+  const ShootingProblem ms = BuildMultipleShooting(start, {ex}, {setup}, ms_options);
   const SolverResult rm = SolveWithIpopt(ms.nlp);
   ASSERT_TRUE(rm.success) << rm.FullReport();
   const Eigen::VectorXd pc = col.Parameters(rc.w), pm = ms.Parameters(rm.w);
@@ -111,17 +112,18 @@ TEST(Collocation, StiffModelsAreInitialisedByAnImplicitScheme) {
           .x.row(1)
           .transpose();
   const int n = 51;
-  ExperimentData ex;
+  Experiment ex;
   ex.name = "robertson";
   ex.dt = 0.4;
   ex.u = Eigen::MatrixXd(n, 0);
-  ex.x0 = start;
+  ExperimentSetup setup;
+  setup.x0 = start;
   const Trajectory reference = MakeIntegrator(model, ex.dt, cvodes)->Simulate(start, ex.u, p);
   ex.y = reference.y;
   EXPECT_FALSE(SimulateRk4(model, start, ex.u, p, ex.dt, 4).x.allFinite());
   CollocationOptions options;
   options.degree = 2;
-  const CollocationProblem problem = BuildCollocation(model, {ex}, options);
+  const CollocationProblem problem = BuildCollocation(model, {ex}, {setup}, options);
   const Eigen::VectorXd w0 = problem.nlp.w0();
   ASSERT_TRUE(w0.allFinite());
   constexpr double kGuessAccuracy = 1e-3;  // relative to each species' value at t = 20 s

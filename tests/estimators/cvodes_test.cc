@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/cvodes_integrator.h"
-#include "graybox/estimators/integrator_factory.h"
-#include "graybox/estimators/integrators.h"
+#include "graybox/estimators/integrators/cvodes_integrator.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/integrators/integrators.h"
 #include "graybox/models/model.h"
 #include "test_models.h"
 

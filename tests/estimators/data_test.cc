@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/csv_file.h"
-#include "graybox/estimators/dataset.h"
-#include "graybox/estimators/mat_file.h"
+#include "graybox/estimators/data/csv_file.h"
+#include "graybox/estimators/data/dataset.h"
+#include "graybox/estimators/data/mat_file.h"
 
 namespace graybox::estimators {
 namespace {

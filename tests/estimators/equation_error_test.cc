@@ -6,9 +6,9 @@
 #include <cmath>
 #include <random>
 
-#include "graybox/estimators/covariance.h"
-#include "graybox/estimators/equation_error.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/analysis/covariance.h"
+#include "graybox/estimators/formulations/equation_error.h"
+#include "graybox/estimators/solvers/solvers.h"
 
 namespace graybox::estimators {
 namespace {

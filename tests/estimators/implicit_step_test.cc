@@ -17,14 +17,14 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/covariance.h"
-#include "graybox/estimators/cvodes_integrator.h"
-#include "graybox/estimators/integrator_factory.h"
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/metrics.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/n_step.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/analysis/covariance.h"
+#include "graybox/estimators/analysis/metrics.h"
+#include "graybox/estimators/analysis/n_step.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/integrators/cvodes_integrator.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/integrators/integrators.h"
+#include "graybox/estimators/solvers/solvers.h"
 #include "graybox/expr/derivative_check.h"
 #include "graybox/models/model.h"
 #include "test_models.h"
@@ -512,15 +512,16 @@ TEST(ImplicitStep, MultipleShootingWithRadauRecoversAStiffDrive) {
   const Eigen::VectorXd truth = truth_model.ParameterValues();
   const double dt = 0.01;
   const int n = 1000;
-  ExperimentData ex;
+  Experiment ex;
   ex.name = "stiff";
   ex.dt = dt;
   ex.u = Multisine(n, dt);
-  ex.x0 = Eigen::Vector3d::Zero();
+  ExperimentSetup setup;
+  setup.x0 = Eigen::Vector3d::Zero();
   CvodesOptions cvodes;
   cvodes.relative_tolerance = 1e-10;
   cvodes.absolute_tolerance = 1e-12;
-  const Trajectory sim = SimulateCvodes(truth_model, ex.x0, ex.u, truth, dt, cvodes);
+  const Trajectory sim = SimulateCvodes(truth_model, setup.x0, ex.u, truth, dt, cvodes);
   ASSERT_TRUE(sim.ok) << sim.summary.BriefReport();
   const double range = sim.y.maxCoeff() - sim.y.minCoeff();
   std::mt19937 rng(Seed());
@@ -538,16 +539,16 @@ TEST(ImplicitStep, MultipleShootingWithRadauRecoversAStiffDrive) {
   options.segment_length = 20;
   options.fix_initial_state = true;
   // RK4 at the sample time cannot even simulate the initial guess (h a = 4 > 2.785).
-  EXPECT_THROW(BuildMultipleShooting(start, {ex}, options), std::invalid_argument);
+  EXPECT_THROW(BuildMultipleShooting(start, {ex}, {setup}, options), std::invalid_argument);
   options.step = Scheme(StepScheme::kRadauIIA);
-  const ShootingProblem problem = BuildMultipleShooting(start, {ex}, options);
+  const ShootingProblem problem = BuildMultipleShooting(start, {ex}, {setup}, options);
   const SolverResult r = SolveWithIpopt(problem.nlp);
   ASSERT_TRUE(r.success) << r.FullReport();
   std::cout << r.BriefReport() << "\n";
   EXPECT_LT(r.constraint_violation, 1e-8);
   const Eigen::VectorXd p = problem.Parameters(r.w);
   const UncertaintyReport u =
-      SimulationCovariance(start, {ex}, p, {ex.x0}, problem.output_weights, options.step);
+      SimulationCovariance(start, {ex}, p, {setup.x0}, problem.output_weights, options.step);
   std::cout << u.FullReport();
   for (int i = 1; i < 5; ++i) {
     const ParameterEstimate& e = u.parameters[static_cast<std::size_t>(i)];

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/metrics.h"
+#include "graybox/estimators/analysis/metrics.h"
 
 namespace graybox::estimators {
 namespace {

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <random>
 
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/integrators/integrators.h"
+#include "graybox/estimators/solvers/solvers.h"
 #include "graybox/models/model.h"
 #include "test_models.h"
 
@@ -24,14 +24,20 @@ struct Truth {
   Eigen::Vector3d p{0.8, 0.45, 0.35};
 };
 
-ExperimentData SimulatedExperiment(const models::StateSpaceModel& model, int n, double noise,
-                                   std::mt19937* rng) {
-  ExperimentData ex;
+/// The initial state of the simulated experiments.
+ExperimentSetup SimulatedSetup() {
+  ExperimentSetup setup;
+  setup.x0 = Eigen::Vector2d(0.1, 0.0);
+  return setup;
+}
+
+Experiment SimulatedExperiment(const models::StateSpaceModel& model, int n, double noise,
+                               std::mt19937* rng) {
+  Experiment ex;
   ex.name = "sim";
   ex.dt = kDt;
   ex.u = testing::DriveTorque(n, kDt);
-  ex.x0 = Eigen::Vector2d(0.1, 0.0);
-  const Trajectory t = SimulateRk4(model, ex.x0, ex.u, Truth().p, kDt, 2);
+  const Trajectory t = SimulateRk4(model, SimulatedSetup().x0, ex.u, Truth().p, kDt, 2);
   std::normal_distribution<double> eps(0.0, noise);
   ex.y = t.y;
   for (int k = 0; k < n; ++k) ex.y(k, 0) += eps(*rng);
@@ -50,11 +56,12 @@ constexpr double kRecoveryTolerance = 0.02;
 
 TEST(MultipleShooting, IpoptRecoversFrictionParameters) {
   std::mt19937 rng(kSeed);
-  const ExperimentData ex = SimulatedExperiment(FrictionDriveModel(), 1000, 1e-3, &rng);
+  const Experiment ex = SimulatedExperiment(FrictionDriveModel(), 1000, 1e-3, &rng);
   MultipleShootingOptions options;
   options.segment_length = 25;
   options.step.substeps = 2;
-  const ShootingProblem problem = BuildMultipleShooting(PerturbedModel(), {ex}, options);
+  const ShootingProblem problem =
+      BuildMultipleShooting(PerturbedModel(), {ex}, {SimulatedSetup()}, options);
   EXPECT_EQ(problem.nlp.NumConstraints(), (1000 / 25 - 1) * 2);
   const SolverResult r = SolveWithIpopt(problem.nlp);
   ASSERT_TRUE(r.success) << r.FullReport();
@@ -68,14 +75,16 @@ TEST(MultipleShooting, IpoptRecoversFrictionParameters) {
 
 TEST(MultipleShooting, CeresWithContinuityResidualsAgreesWithIpopt) {
   std::mt19937 rng(kSeed);
-  const ExperimentData ex = SimulatedExperiment(FrictionDriveModel(), 1000, 1e-3, &rng);
+  const Experiment ex = SimulatedExperiment(FrictionDriveModel(), 1000, 1e-3, &rng);
   MultipleShootingOptions options;
   options.segment_length = 25;
   options.step.substeps = 2;
-  const ShootingProblem with_constraints = BuildMultipleShooting(PerturbedModel(), {ex}, options);
+  const ShootingProblem with_constraints =
+      BuildMultipleShooting(PerturbedModel(), {ex}, {SimulatedSetup()}, options);
   options.continuity_as_constraints = false;
   options.continuity_weight = 1e3;
-  const ShootingProblem with_residuals = BuildMultipleShooting(PerturbedModel(), {ex}, options);
+  const ShootingProblem with_residuals =
+      BuildMultipleShooting(PerturbedModel(), {ex}, {SimulatedSetup()}, options);
   const SolverResult ipopt = SolveWithIpopt(with_constraints.nlp);
   const SolverResult ceres = SolveWithCeres(with_residuals.nlp);
   ASSERT_TRUE(ipopt.success) << ipopt.FullReport();
@@ -89,21 +98,22 @@ TEST(MultipleShooting, CeresWithContinuityResidualsAgreesWithIpopt) {
 }
 
 TEST(MultipleShooting, BadInputIsRejectedWithItsPlace) {
-  ExperimentData ex;
+  Experiment ex;
   ex.name = "broken";
   ex.dt = kDt;
   ex.u = Eigen::MatrixXd::Zero(10, 1);
   ex.y = Eigen::MatrixXd::Zero(9, 1);
-  ex.x0 = Eigen::Vector2d::Zero();
+  ExperimentSetup setup;
+  setup.x0 = Eigen::Vector2d::Zero();
   try {
-    BuildMultipleShooting(FrictionDriveModel(), {ex});
+    BuildMultipleShooting(FrictionDriveModel(), {ex}, {setup});
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("experiment 'broken'"), std::string::npos) << e.what();
   }
   ex.y = Eigen::MatrixXd::Zero(10, 1);
   ex.y(3, 0) = std::nan("");
-  EXPECT_THROW(BuildMultipleShooting(FrictionDriveModel(), {ex}), std::invalid_argument);
+  EXPECT_THROW(BuildMultipleShooting(FrictionDriveModel(), {ex}, {setup}), std::invalid_argument);
 }
 
 }  // namespace

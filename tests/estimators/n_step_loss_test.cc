@@ -7,10 +7,10 @@
 #include <memory>
 #include <random>
 
-#include "graybox/estimators/integrator_factory.h"
-#include "graybox/estimators/metrics.h"
-#include "graybox/estimators/n_step_loss.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/analysis/metrics.h"
+#include "graybox/estimators/formulations/n_step_loss.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/solvers/solvers.h"
 #include "graybox/models/model.h"
 #include "test_models.h"
 
@@ -33,49 +33,44 @@ models::StateSpaceModel DriveModel(const Eigen::Vector3d& p) {
 const Eigen::Vector3d kTruth(0.8, 0.45, 0.35);
 const Eigen::Vector3d kStart(0.8 * 1.3, 0.45 * 0.7, 0.35 * 1.3);  // 30 % off
 
-// A record of both states with noise `noise` (rad and rad/s).
-struct Record {
-  ExperimentData experiment;
-  Eigen::MatrixXd states;
-};
-
-Record Simulated(int n, double noise, unsigned seed) {
-  Record rec;
-  ExperimentData& ex = rec.experiment;
+// A record of both states with noise `noise` (rad and rad/s): the measured states x, and the
+// noisy position as the output.
+Experiment Simulated(int n, double noise, unsigned seed) {
+  Experiment ex;
   ex.name = "sim";
   ex.dt = kDt;
   ex.u = testing::DriveTorque(n, kDt);
-  ex.x0 = Eigen::Vector2d(0.1, 0.0);
+  const Eigen::Vector2d x0(0.1, 0.0);
   const models::StateSpaceModel truth = DriveModel(kTruth);
-  const Trajectory t = MakeIntegrator(truth, kDt)->Simulate(ex.x0, ex.u, kTruth);
+  const Trajectory t = MakeIntegrator(truth, kDt)->Simulate(x0, ex.u, kTruth);
   std::mt19937 rng(seed);
   std::normal_distribution<double> eps(0.0, noise);
-  rec.states = t.x;
-  for (Eigen::Index k = 0; k < rec.states.size(); ++k) rec.states.data()[k] += eps(rng);
-  ex.y = rec.states.col(0);
-  return rec;
+  ex.x = t.x;
+  for (Eigen::Index k = 0; k < ex.x.size(); ++k) ex.x.data()[k] += eps(rng);
+  ex.y = ex.x.col(0);
+  return ex;
 }
 
 TEST(NStepLoss, CostIsTheNStepNrmsOfTheMetric) {
-  const Record rec = Simulated(400, 1e-3, kSeed);
+  const Experiment rec = Simulated(400, 1e-3, kSeed);
   NStepLossOptions options;
   options.steps = 30;
   options.stride = 7;
   const models::StateSpaceModel model = DriveModel(kStart);
-  const NStepLossProblem problem = BuildNStepLoss(model, {rec.experiment}, {rec.states}, options);
+  const NStepLossProblem problem = BuildNStepLoss(model, {rec}, options);
   double cost = 0.0;
   ASSERT_TRUE(problem.nlp.Objective(problem.nlp.w0().data(), &cost).ok);
 
   const std::unique_ptr<Integrator> integrator = MakeIntegrator(model, kDt);
   const Eigen::VectorXd p = problem.Parameters(problem.nlp.w0());
   const SimulateFromState simulate = [&](int start, const Eigen::VectorXd& x, int steps) {
-    const Trajectory t = integrator->Simulate(x, rec.experiment.u.middleRows(start, steps + 1), p);
+    const Trajectory t = integrator->Simulate(x, rec.u.middleRows(start, steps + 1), p);
     return Eigen::MatrixXd(t.x.bottomRows(steps));
   };
   NStepOptions scoring;
   scoring.steps = options.steps;
   scoring.stride = options.stride;
-  const NStepResult eta = NStepNrms(rec.states, simulate, scoring);
+  const NStepResult eta = NStepNrms(rec.x, simulate, scoring);
   EXPECT_EQ(eta.starts, problem.starts[0]);
   constexpr double kSameSums = 1e-12;  // two summation orders of the same squares
   EXPECT_NEAR(problem.Nrms(cost), eta.nrms, kSameSums * eta.nrms);
@@ -83,29 +78,27 @@ TEST(NStepLoss, CostIsTheNStepNrmsOfTheMetric) {
 }
 
 TEST(NStepLoss, ZeroWeightsTakeTheDefault) {
-  const Record rec = Simulated(300, 1e-3, kSeed);
+  const Experiment rec = Simulated(300, 1e-3, kSeed);
   NStepLossOptions options;
   options.steps = 20;
   const models::StateSpaceModel model = DriveModel(kStart);
-  const NStepLossProblem defaults = BuildNStepLoss(model, {rec.experiment}, {rec.states}, options);
+  const NStepLossProblem defaults = BuildNStepLoss(model, {rec}, options);
   options.weights = Eigen::Vector2d(0.0, 5.0);
-  const NStepLossProblem mixed = BuildNStepLoss(model, {rec.experiment}, {rec.states}, options);
+  const NStepLossProblem mixed = BuildNStepLoss(model, {rec}, options);
   EXPECT_EQ(mixed.weights[0], defaults.weights[0]);  // 1 / std of q
   EXPECT_EQ(mixed.weights[1], 5.0);
   options.weights = Eigen::Vector2d(-1.0, 5.0);
-  EXPECT_THROW(BuildNStepLoss(model, {rec.experiment}, {rec.states}, options),
-               std::invalid_argument);
+  EXPECT_THROW(BuildNStepLoss(model, {rec}, options), std::invalid_argument);
 }
 
 TEST(NStepLoss, JacobianMatchesCentralDifferences) {
-  const Record rec = Simulated(200, 1e-3, kSeed);
+  const Experiment rec = Simulated(200, 1e-3, kSeed);
   NStepLossOptions options;
   options.steps = 25;
   options.stride = 10;
   options.channels = {1};
   options.num_threads = 2;
-  const NStepLossProblem problem =
-      BuildNStepLoss(DriveModel(kStart), {rec.experiment}, {rec.states}, options);
+  const NStepLossProblem problem = BuildNStepLoss(DriveModel(kStart), {rec}, options);
   const Nlp& nlp = problem.nlp;
   const Eigen::VectorXd w = nlp.w0();
   Eigen::VectorXd values(static_cast<Eigen::Index>(nlp.ResidualJacobianRows().size()));
@@ -134,13 +127,12 @@ TEST(NStepLoss, JacobianMatchesCentralDifferences) {
 constexpr double kRecoveryTolerance = 0.02;
 
 TEST(NStepLoss, CeresAndIpoptRecoverKnownParameters) {
-  const Record rec = Simulated(1500, 1e-3, kSeed);
+  const Experiment rec = Simulated(1500, 1e-3, kSeed);
   NStepLossOptions options;
   options.steps = 50;
   options.stride = 10;
   options.num_threads = 2;
-  const NStepLossProblem problem =
-      BuildNStepLoss(DriveModel(kStart), {rec.experiment}, {rec.states}, options);
+  const NStepLossProblem problem = BuildNStepLoss(DriveModel(kStart), {rec}, options);
   const SolverResult ceres = SolveWithCeres(problem.nlp);
   ASSERT_TRUE(ceres.success) << ceres.FullReport();
   const Eigen::VectorXd pc = problem.Parameters(ceres.w);
@@ -161,11 +153,10 @@ TEST(NStepLoss, CeresAndIpoptRecoverKnownParameters) {
 }
 
 TEST(NStepLoss, NonFiniteSimulationIsAStatus) {
-  const Record rec = Simulated(200, 1e-3, kSeed);
+  const Experiment rec = Simulated(200, 1e-3, kSeed);
   NStepLossOptions options;
   options.steps = 20;
-  const NStepLossProblem problem =
-      BuildNStepLoss(DriveModel(kStart), {rec.experiment}, {rec.states}, options);
+  const NStepLossProblem problem = BuildNStepLoss(DriveModel(kStart), {rec}, options);
   Eigen::VectorXd w = problem.nlp.w0();
   w[0] = 0.0;  // J = 0: qdd = (...) / 0
   double f = 0.0;
@@ -175,11 +166,13 @@ TEST(NStepLoss, NonFiniteSimulationIsAStatus) {
 }
 
 TEST(NStepLoss, BadInputNamesThePlace) {
-  const Record rec = Simulated(100, 1e-3, kSeed);
+  const Experiment rec = Simulated(100, 1e-3, kSeed);
   const models::StateSpaceModel model = DriveModel(kStart);
   auto message = [&](const NStepLossOptions& options, const Eigen::MatrixXd& states) {
+    Experiment ex = rec;
+    ex.x = states;
     try {
-      BuildNStepLoss(model, {rec.experiment}, {states}, options);
+      BuildNStepLoss(model, {ex}, options);
     } catch (const std::invalid_argument& e) {
       return std::string(e.what());
     }
@@ -187,21 +180,21 @@ TEST(NStepLoss, BadInputNamesThePlace) {
   };
   NStepLossOptions options;
   options.steps = 100;
-  EXPECT_NE(message(options, rec.states)
-                .find("expected more than first_start + steps = 100 samples, got 100"),
-            std::string::npos);
+  EXPECT_NE(
+      message(options, rec.x).find("expected more than first_start + steps = 100 samples, got 100"),
+      std::string::npos);
   options.steps = 10;
   options.channels = {2};
-  EXPECT_NE(message(options, rec.states).find("expected state indices in [0, 2), got 2"),
+  EXPECT_NE(message(options, rec.x).find("expected state indices in [0, 2), got 2"),
             std::string::npos);
   options.channels = {};
-  EXPECT_NE(message(options, rec.states.leftCols(1)).find("measured states of N x 2"),
+  EXPECT_NE(message(options, rec.x.leftCols(1)).find("measured states of N x 2"),
             std::string::npos);
-  Eigen::MatrixXd bad = rec.states;
+  Eigen::MatrixXd bad = rec.x;
   bad(5, 1) = std::nan("");
   EXPECT_NE(message(options, bad).find("NaN"), std::string::npos);
   options.stride = 0;
-  EXPECT_NE(message(options, rec.states).find("stride: expected >= 1, got 0"), std::string::npos);
+  EXPECT_NE(message(options, rec.x).find("stride: expected >= 1, got 0"), std::string::npos);
 }
 
 }  // namespace

@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/mat_file.h"
-#include "graybox/estimators/n_step.h"
-#include "graybox/estimators/problem_file.h"
+#include "graybox/estimators/analysis/n_step.h"
+#include "graybox/estimators/data/mat_file.h"
+#include "graybox/estimators/integrators/integrators.h"
+#include "graybox/estimators/problem/problem_file.h"
 #include "graybox/models/model.h"
 #include "graybox/models/robot_blocks.h"
 

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <memory>
 
-#include "graybox/estimators/integrator_factory.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/nlp_check.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/nlp/nlp_check.h"
 #include "graybox/models/model.h"
 #include "test_models.h"
 
@@ -29,15 +29,21 @@ models::StateSpaceModel DriveModel() {
   return testing::FrictionDriveModel(options);
 }
 
-ExperimentData Experiment(const models::StateSpaceModel& model) {
-  ExperimentData ex;
+/// The initial state of the simulated experiment.
+ExperimentSetup SimulatedSetup() {
+  ExperimentSetup setup;
+  setup.x0 = Eigen::Vector2d(0.05, 0.0);
+  return setup;
+}
+
+Experiment SimulatedExperiment(const models::StateSpaceModel& model) {
+  Experiment ex;
   ex.name = "sim";
   ex.dt = kDt;
   const int n = 200;
   ex.u.resize(n, 1);
   for (int k = 0; k < n; ++k) ex.u(k, 0) = std::sin(1.3 * k * kDt) + 0.5 * std::sin(4.1 * k * kDt);
-  ex.x0 = Eigen::Vector2d(0.05, 0.0);
-  ex.y = MakeIntegrator(model, kDt)->Simulate(ex.x0, ex.u, model.ParameterValues()).y;
+  ex.y = MakeIntegrator(model, kDt)->Simulate(SimulatedSetup().x0, ex.u, model.ParameterValues()).y;
   return ex;
 }
 
@@ -45,7 +51,8 @@ TEST(NlpCheck, CorrectMultipleShootingPassesEveryCheck) {
   const models::StateSpaceModel model = DriveModel();
   MultipleShootingOptions options;
   options.segment_length = 10;
-  const ShootingProblem p = BuildMultipleShooting(model, {Experiment(model)}, options);
+  const ShootingProblem p =
+      BuildMultipleShooting(model, {SimulatedExperiment(model)}, {SimulatedSetup()}, options);
   Eigen::VectorXd w = p.nlp.w0();
   w.head(4) *= 1.1;  // away from the data's parameters: nonzero residuals and constraints
   const auto results = CheckNlpDerivatives(p.nlp, w);

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include "graybox/estimators/nlp.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/nlp/nlp.h"
+#include "graybox/estimators/solvers/solvers.h"
 #include "graybox/expr/expr.h"
 
 namespace graybox::estimators {

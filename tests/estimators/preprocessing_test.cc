@@ -16,8 +16,8 @@
 
 #include <Eigen/LU>
 
-#include "graybox/estimators/mat_file.h"
-#include "graybox/estimators/preprocessing.h"
+#include "graybox/estimators/data/mat_file.h"
+#include "graybox/estimators/data/preprocessing.h"
 
 namespace graybox::estimators {
 namespace {

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <random>
 
-#include "graybox/estimators/regularization.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/nlp/regularization.h"
+#include "graybox/estimators/solvers/solvers.h"
 
 namespace graybox::estimators {
 namespace {

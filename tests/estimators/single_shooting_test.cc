@@ -7,10 +7,10 @@
 #include <cmath>
 #include <random>
 
-#include "graybox/estimators/integrators.h"
-#include "graybox/estimators/multiple_shooting.h"
-#include "graybox/estimators/single_shooting.h"
-#include "graybox/estimators/solvers.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/formulations/single_shooting.h"
+#include "graybox/estimators/integrators/integrators.h"
+#include "graybox/estimators/solvers/solvers.h"
 #include "graybox/models/model.h"
 #include "test_models.h"
 
@@ -37,13 +37,19 @@ models::StateSpaceModel PerturbedModel() {
   return model;
 }
 
-ExperimentData Simulated(unsigned seed) {
-  ExperimentData ex;
+/// The initial state of the simulated experiments.
+ExperimentSetup SimulatedSetup() {
+  ExperimentSetup setup;
+  setup.x0 = Eigen::Vector2d(0.1, 0.0);
+  return setup;
+}
+
+Experiment Simulated(unsigned seed) {
+  Experiment ex;
   ex.name = "sim";
   ex.dt = kDt;
   ex.u = testing::DriveTorque(kSamples, kDt);
-  ex.x0 = Eigen::Vector2d(0.1, 0.0);
-  ex.y = SimulateRk4(SpringModel(), ex.x0, ex.u, kTruth, kDt, 4).y;
+  ex.y = SimulateRk4(SpringModel(), SimulatedSetup().x0, ex.u, kTruth, kDt, 4).y;
   std::mt19937 rng(seed);
   std::normal_distribution<double> eps(0.0, kNoise);
   for (int k = 0; k < kSamples; ++k) ex.y(k, 0) += eps(rng);
@@ -58,7 +64,7 @@ TEST(SingleShooting, ResidualBlockDerivativesMatchFiniteDifferences) {
   options.fix_initial_state = false;
   options.integrator.fixed_step.substeps = 2;
   const ShootingProblem problem =
-      BuildSingleShooting(PerturbedModel(), {Simulated(kSeed)}, options);
+      BuildSingleShooting(PerturbedModel(), {Simulated(kSeed)}, {SimulatedSetup()}, options);
   const Nlp& nlp = problem.nlp;
   ASSERT_EQ(nlp.NumVariables(), 6);
   ASSERT_EQ(nlp.NumResiduals(), kSamples);
@@ -102,10 +108,11 @@ TEST(SingleShooting, ResidualBlockDerivativesMatchFiniteDifferences) {
 }
 
 TEST(SingleShooting, CeresAndIpoptRecoverTheParametersAndAgree) {
-  const std::vector<ExperimentData> data = {Simulated(kSeed)};
+  const std::vector<Experiment> data = {Simulated(kSeed)};
+  const std::vector<ExperimentSetup> setups = {SimulatedSetup()};
   SingleShootingOptions options;
   options.integrator.fixed_step.substeps = 4;
-  const ShootingProblem problem = BuildSingleShooting(PerturbedModel(), data, options);
+  const ShootingProblem problem = BuildSingleShooting(PerturbedModel(), data, setups, options);
   const SolverResult ceres = SolveWithCeres(problem.nlp);
   const SolverResult ipopt = SolveWithIpopt(problem.nlp);
   ASSERT_TRUE(ceres.success) << ceres.FullReport();
@@ -123,18 +130,20 @@ TEST(SingleShooting, CeresAndIpoptRecoverTheParametersAndAgree) {
 TEST(SingleShooting, EqualsTheUnrolledSingleShooting) {
   // 150 samples: the unrolled graph (and its exact Hessian) grows with the record.
   constexpr int kShort = 150;
-  ExperimentData shortened = Simulated(kSeed + 1);
+  Experiment shortened = Simulated(kSeed + 1);
   shortened.u.conservativeResize(kShort, Eigen::NoChange);
   shortened.y.conservativeResize(kShort, Eigen::NoChange);
-  const std::vector<ExperimentData> data = {shortened};
+  const std::vector<Experiment> data = {shortened};
+  const std::vector<ExperimentSetup> setups = {SimulatedSetup()};
   SingleShootingOptions options;
   options.integrator.fixed_step.substeps = 2;
-  const ShootingProblem by_integrator = BuildSingleShooting(PerturbedModel(), data, options);
+  const ShootingProblem by_integrator =
+      BuildSingleShooting(PerturbedModel(), data, setups, options);
   MultipleShootingOptions unrolled;
   unrolled.segment_length = kShort;
   unrolled.step.substeps = 2;
   unrolled.fix_initial_state = true;
-  const ShootingProblem symbolic = BuildMultipleShooting(PerturbedModel(), data, unrolled);
+  const ShootingProblem symbolic = BuildMultipleShooting(PerturbedModel(), data, setups, unrolled);
   // Same variables, same objective at the start (the same RK4 map evaluated two ways).
   ASSERT_EQ(by_integrator.nlp.NumVariables(), symbolic.nlp.NumVariables());
   double f1 = 0.0, f2 = 0.0;
@@ -150,13 +159,14 @@ TEST(SingleShooting, EqualsTheUnrolledSingleShooting) {
 }
 
 TEST(SingleShooting, CvodesRecoversTheParametersWithFreeInitialState) {
-  const std::vector<ExperimentData> data = {Simulated(kSeed + 2)};
+  const std::vector<Experiment> data = {Simulated(kSeed + 2)};
+  const std::vector<ExperimentSetup> setups = {SimulatedSetup()};
   SingleShootingOptions options;
   options.integrator.method = IntegrationMethod::kCvodes;
   options.integrator.cvodes.relative_tolerance = 1e-9;
   options.integrator.cvodes.absolute_tolerance = 1e-11;
   options.fix_initial_state = false;
-  const ShootingProblem problem = BuildSingleShooting(PerturbedModel(), data, options);
+  const ShootingProblem problem = BuildSingleShooting(PerturbedModel(), data, setups, options);
   const SolverResult r = SolveWithCeres(problem.nlp);
   ASSERT_TRUE(r.success) << r.FullReport();
   const Eigen::VectorXd p = problem.Parameters(r.w);
@@ -171,7 +181,7 @@ TEST(SingleShooting, CvodesRecoversTheParametersWithFreeInitialState) {
 TEST(SingleShooting, FailedSimulationIsAStatusNotACrash) {
   SingleShootingOptions options;
   const ShootingProblem problem =
-      BuildSingleShooting(PerturbedModel(), {Simulated(kSeed)}, options);
+      BuildSingleShooting(PerturbedModel(), {Simulated(kSeed)}, {SimulatedSetup()}, options);
   Eigen::VectorXd w = problem.nlp.w0();
   w[0] = 0.0;  // J = 0: division by zero in the dynamics
   double f = 0.0;
@@ -183,18 +193,18 @@ TEST(SingleShooting, FailedSimulationIsAStatusNotACrash) {
 }
 
 TEST(SingleShooting, BadInputIsRejectedWithItsPlace) {
-  ExperimentData ex = Simulated(kSeed);
+  Experiment ex = Simulated(kSeed);
   ex.name = "broken";
   ex.y.conservativeResize(ex.y.rows() - 1, Eigen::NoChange);
   try {
-    BuildSingleShooting(SpringModel(), {ex});
+    BuildSingleShooting(SpringModel(), {ex}, {SimulatedSetup()});
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("experiment 'broken'"), std::string::npos) << e.what();
   }
   SingleShootingOptions options;
   options.output_weights = Eigen::VectorXd::Ones(3);
-  EXPECT_THROW(BuildSingleShooting(SpringModel(), {Simulated(kSeed)}, options),
+  EXPECT_THROW(BuildSingleShooting(SpringModel(), {Simulated(kSeed)}, {SimulatedSetup()}, options),
                std::invalid_argument);
 }
 

@@ -19,7 +19,7 @@
 
 #include <Eigen/Core>
 
-#include "graybox/estimators/cvodes_integrator.h"
+#include "graybox/estimators/integrators/cvodes_integrator.h"
 #include "graybox/models/block.h"
 #include "graybox/models/model.h"
 

@@ -14,6 +14,7 @@
 #include "graybox/expr/function.h"
 #include "graybox/models/block.h"
 #include "graybox/models/model.h"
+#include "graybox/util/did_you_mean.h"
 #include "test_util.h"
 
 namespace graybox::models {
@@ -318,8 +319,8 @@ TEST(BlockRegistry, UnknownTypeSuggestsTheClosest) {
 }
 
 TEST(BlockRegistry, DidYouMeanPicksTheClosestWord) {
-  EXPECT_EQ(DidYouMean("stribek", {"stribeck", "coulomb", "viscous"}), "stribeck");
-  EXPECT_EQ(DidYouMean("zzzzzz", {"stribeck", "coulomb"}), "");
+  EXPECT_EQ(util::DidYouMean("stribek", {"stribeck", "coulomb", "viscous"}), "stribeck");
+  EXPECT_EQ(util::DidYouMean("zzzzzz", {"stribeck", "coulomb"}), "");
 }
 
 }  // namespace

@@ -176,7 +176,4 @@ class BlockRegistry {
 void CheckOptionKeys(const std::string& type, const BlockOptions& options,
                      const std::vector<std::string>& known);
 
-/// The closest of `candidates` to `word` by edit distance (empty when none is close).
-std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates);
-
 }  // namespace graybox::models

@@ -2,7 +2,7 @@
 //     tau = g(q, qd, qdd, p),
 // as one symbolic Function, the model type of equation-error identification (IDIM: evaluate g on
 // measured or filtered q and its derivatives and fit p to the measured torques;
-// estimators/equation_error.h) and of feedforward control.
+// estimators/formulations/equation_error.h) and of feedforward control.
 //
 // Composition. g is the sum of a rigid-body part and additive torque blocks, composed exactly like
 // a Model (model.h) through named signals:

@@ -1,0 +1,281 @@
+// Problem files: one TOML file says WHAT to identify (the model, from registered blocks), FROM
+// WHAT (the data files and how their variables map onto the model's inputs and outputs, cut into
+// estimation, validation and test ranges) and HOW (the formulation, the solver and their
+// options). docs/problem-format.md is the reference of every key, with a complete example per
+// shipped problem; this header is the C++ side.
+//
+//   Problem problem = LoadProblem("problems/emps/emps_idim.toml");  // parse, build, check names
+//   std::vector<SplitData> splits = LoadData(problem);               // read, validate, cut
+//
+// Sections (one per concern):
+//   [problem]      name, description
+//   [model]        name, inputs (name, unit), [[model.blocks]] (instance, type, options, inputs,
+//                  outputs: exactly models::Model::AddBlock), outputs (signal names),
+//                  [model.parameters."<instance>.<param>"] value / lower / upper / free / scale
+//   [[data]]       name, file (relative to the problem file), format (mat | csv), sample_time or
+//                  time (a variable), inputs / outputs: model signal -> variable (with scale,
+//                  column / row, rate = forward difference, or a constant), splits with roles,
+//                  initial_state (numbers or a variable's first sample)
+//   [estimation]   method, solver, seed, scheme, substeps, newton_iterations, and one table
+//                  per formulation ([estimation.multiple_shooting], [estimation.collocation],
+//                  [estimation.equation_error], [estimation.n_step]), the integrator
+//                  ([estimation.integrator]), per solver ([estimation.ipopt],
+//                  [estimation.ceres]), and [[estimation.regularization]] terms
+//
+// Errors. Every defect is reported before anything is computed or written, as a ProblemFileError
+// (a std::invalid_argument) whose message starts with the place,
+//     "problems/emps/emps_idim.toml:42:1: [estimation.equation_error] unknown key 'lowpas_hz';
+//      did you mean 'lowpass_hz'?"
+// and says what was expected and what was found. Unknown keys are errors anywhere (with the
+// closest known key), as are TOML syntax errors (toml++'s message and position), wrong value
+// types, unknown block types, signals or parameters (with suggestions), infeasible bounds
+// (lower > upper, a value outside its bounds), a solver/formulation mismatch and unknown Ipopt
+// options (checked against Ipopt's registered options when the file is loaded). LoadData adds the
+// data defects: missing files or variables (with suggestions), variables of different lengths,
+// NaN/Inf samples, non-monotone or non-uniform time, split ranges outside the record, and too
+// few samples for the preprocessing.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "graybox/estimators/data/dataset.h"
+#include "graybox/estimators/formulations/collocation.h"
+#include "graybox/estimators/formulations/experiment_setup.h"
+#include "graybox/estimators/formulations/multiple_shooting.h"
+#include "graybox/estimators/formulations/n_step_loss.h"
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/nlp/regularization.h"
+#include "graybox/estimators/solvers/solvers.h"
+#include "graybox/models/model.h"
+
+namespace graybox::estimators {
+
+/// A place in a problem file: the file, the TOML table path ("estimation.ipopt", "data[1]"), and
+/// the 1-based line and column (0 when unknown).
+struct SourceLocation {
+  std::string file;
+  std::string table;
+  int line = 0;
+  int column = 0;
+  /// "file:line:column: [table]" (parts that are unknown are left out).
+  std::string ToString() const;
+};
+
+/// A defect in a problem file or in the data it names. what() is "<location> <message>".
+class ProblemFileError : public std::invalid_argument {
+ public:
+  ProblemFileError(SourceLocation where, const std::string& message);
+  const SourceLocation& where() const { return where_; }
+  /// The message without the location.
+  const std::string& message() const { return message_; }
+
+ private:
+  SourceLocation where_;
+  std::string message_;
+};
+
+/// Where one model signal comes from in a data file: signal = scale * variable, where `variable`
+/// is a .mat variable or dotted struct path ("rec.act_pos_mot_deg") or a CSV column name.
+struct ChannelSource {
+  std::string signal;    // the model input or output
+  std::string variable;  // the variable, struct path or column
+  double scale = 1.0;
+  /// A scalar variable of the same file multiplying `scale` ("gtau"), or empty.
+  std::string scale_variable;
+  /// For a 2-D variable: the column (N x m, sample-major) or the row (m x N, channel-major) to
+  /// read, 0-based; -1 when the variable is a vector.
+  int column = -1;
+  int row = -1;
+  /// Use the forward difference (v[k+1] - v[k]) / dt of the (scaled) variable instead, the last
+  /// sample repeating the one before: held over each sample and integrated (signal.integrator)
+  /// it reproduces v exactly at the samples and linearly in between (a first-order hold).
+  bool rate = false;
+  /// A signal that is constant over the record (`constant = 0.0`, e.g. an input the file did not
+  /// record because it was zero); `variable` is then empty.
+  std::optional<double> constant;
+  SourceLocation where;
+};
+
+enum class SplitRole { kEstimation, kValidation, kTest };
+/// "estimation", "validation", "test".
+const char* SplitRoleName(SplitRole role);
+
+/// Samples [begin, end) of one data file (end = -1: to the last sample) with a role.
+struct SplitSpec {
+  std::string name;
+  SplitRole role = SplitRole::kEstimation;
+  int begin = 0;
+  int end = -1;
+  SourceLocation where;
+};
+
+struct DataSpec {
+  std::string name;
+  std::string file;    // as written in the problem file
+  std::string path;    // resolved against the problem file's folder
+  std::string format;  // "mat" or "csv"
+  /// Uniform sample time [s] (> 0), or 0 when `time_variable` gives the instants.
+  double sample_time = 0.0;
+  std::string time_variable;
+  // CSV only.
+  char csv_delimiter = ',';
+  bool csv_header = true;
+  std::vector<std::string> csv_column_names;
+  /// One source per model input and per model output, in the model's order.
+  std::vector<ChannelSource> inputs;
+  std::vector<ChannelSource> outputs;
+  /// At least one; by default one estimation split named like the data over all samples.
+  std::vector<SplitSpec> splits;
+  /// Explicit initial state values by state name, as numbers or as the first sample of a variable
+  /// of the file (`initial_state_variables`). A state not listed starts at the first sample of
+  /// the measured output of the same name when there is one, else at 0.
+  std::map<std::string, double> initial_state;
+  std::map<std::string, std::string> initial_state_variables;
+  SourceLocation where;
+};
+
+/// How equation error obtains states and their derivatives from data (see problem-format.md):
+/// each state is a measured output of the same name (low-pass filtered when `lowpass_hz` > 0) or
+/// the time derivative (central differences) of another state or measured output; the state
+/// derivatives are central differences of the states. Then `skip_samples` rows are dropped and
+/// every signal is decimated by `decimate` (zero-phase Chebyshev-I anti-aliasing, MATLAB's
+/// convention of ending at the last sample).
+struct EquationErrorSpec {
+  /// "inverse": residuals in the units of `inverse_inputs` (the input values that reproduce the
+  /// measured state derivatives; IDIM-LS for a mechanical model driven by a force) or
+  /// "state_derivative": residuals f_c(x, u, theta) - xdot_c.
+  std::string form = "inverse";
+  /// The states whose equations give residuals (default: every state whose derivative is not
+  /// simply another state, e.g. the velocity of a mass).
+  std::vector<std::string> residual_states;
+  /// Inverse form: one model input per residual state (default: the only input, when the model
+  /// has one input and one residual state).
+  std::vector<std::string> inverse_inputs;
+  /// state -> the signal it is the time derivative of (default: inferred from the kinematic
+  /// equations dq/dt = qd of the model).
+  std::map<std::string, std::string> differentiate;
+  /// "central": Butterworth low-pass (lowpass_hz) and central differences; "fft": seed 000's
+  /// eq. 8 for periodic records: outputs, inputs and every derivative through the ideal FFT
+  /// low-pass keeping the bins |m| < fft_cutoff_bin (preprocessing.h FftLowPass, FftDerivative).
+  std::string differentiation = "central";
+  int fft_cutoff_bin = 201;  // seed 000 keeps the bins i <= 200
+  double lowpass_hz = 0.0;   // zero-phase Butterworth cut-off; 0 = no filtering
+  int lowpass_order = 4;     // filter order (applied forward and backward)
+  int lowpass_padding = -1;  // odd-reflection samples at each end; -1 = 3 * order
+  int skip_samples = 0;      // dropped after differentiation
+  int decimate = 1;          // integer decimation factor
+  /// "auto", "parallel" or "signals": with parallel decimation the regressor columns
+  /// d target / d theta and the measured target are decimated (IDIM-LS's parallel filtering;
+  /// needs a model affine in its free parameters), with "signals" the states, derivatives and
+  /// inputs are decimated before the model is evaluated. "auto": parallel when affine.
+  std::string decimation = "auto";
+  /// Residual weights by residual channel name (default 1 / std of the target).
+  std::map<std::string, double> weights;
+};
+
+struct EstimationSpec {
+  /// "multiple_shooting", "single_shooting", "collocation", "equation_error" or "n_step".
+  std::string method = "multiple_shooting";
+  /// "ipopt" or "ceres" (default: ceres for equation error, ipopt otherwise).
+  std::string solver;
+  /// Seed of every random draw of a fit (recorded in result.json; the current formulations
+  /// draw nothing).
+  unsigned seed = 1;
+  /// The fixed-step map of every fixed-step simulation: multiple shooting's segments, the
+  /// fixed-step integrator, the N-step metric and loss, `graybox simulate` (keys `scheme`:
+  /// rk4 | backward_euler | trapezoidal | radau_iia, `substeps`, `newton_iterations`).
+  FixedStepOptions step;
+  /// The integrator of single shooting, of the N-step loss, of the reported simulations, of
+  /// `graybox simulate` and of the output-error covariance ([estimation.integrator]: method
+  /// "fixed_step" with `step`, or "cvodes" with its tolerances). Multiple shooting and collocation
+  /// keep their own discretisation (the `step` map, collocation polynomials) inside the NLP.
+  IntegratorOptions integrator;
+  MultipleShootingOptions multiple_shooting;
+  /// Output weights by output name (default 1 / std of the channel).
+  std::map<std::string, double> output_weights;
+  /// Initial guess of the shooting nodes: "simulation" (from x0 with the initial parameters) or
+  /// "data" (the states derived from the measurements as for equation error).
+  std::string node_guess = "simulation";
+  CollocationOptions collocation;
+  EquationErrorSpec equation_error;
+  /// [estimation.n_step]: the N-step-ahead loss (n_step_loss.h); its `channels` are state
+  /// indices and `weights` follow them (empty: 1 / std). The measured states come from the data
+  /// as for node_guess = "data"; `integrator` is set from [estimation.integrator].
+  NStepLossOptions n_step;
+  /// [[estimation.regularization]]: penalties on free parameters selected by name or pattern.
+  RegularizationOptions regularization;
+  IpoptOptions ipopt;
+  CeresOptions ceres;
+  SourceLocation where;
+};
+
+/// [metrics]: evaluations beyond the whole-split simulation metrics.
+struct MetricsSpec {
+  /// N of the N-step-ahead NRMS (seed 000 eq. 7: the mean over steps 1..N, analysis/metrics.h)
+  /// reported for every split: from the measured state at every start, N samples simulated with
+  /// the `step` map and compared with the measured states. 0 = off. Needs the states from the
+  /// data (as `node_guess = "data"`).
+  int n_step = 0;
+  int n_step_stride = 1;  // every stride-th start
+  /// The states the N-step NRMS scores (key `n_step_channels`: model state names, distinct, in
+  /// the file's order; an unknown name is an error with the place and a suggestion). Always
+  /// filled by the parser, also when n_step = 0. Default: the states that are measured outputs,
+  /// a state being measured when a model output has the same name ("load.q" of a model with
+  /// outputs = ["load.q"]), in state order. When no state is a measured output (every output is
+  /// computed from the states, e.g. a sensor block), the default is every state: the states are
+  /// then all derived from the data alike and none is closer to the measurement than another.
+  /// Seed 000 scores the positions; with velocities measured as well they are scored by default
+  /// and usually dominate the figure, so list the positions to reproduce eq. 7.
+  std::vector<std::string> n_step_channels;
+  /// The same states as indices into Problem::built.states (what NStepOptions::channels takes).
+  std::vector<int> n_step_channel_indices;
+  /// True when `n_step_channels` was given in the file, false when it is the default.
+  bool n_step_channels_given = false;
+  SourceLocation where;
+};
+
+struct Problem {
+  std::string path;       // as given to LoadProblem
+  std::string directory;  // folder of the file, against which data paths resolve
+  std::string name;
+  std::string description;
+  /// The model with the file's parameter settings applied, and its built form.
+  models::Model model = models::Model("model");
+  models::StateSpaceModel built;
+  /// Block instance -> registered type, in file order.
+  std::vector<std::pair<std::string, std::string>> blocks;
+  std::vector<DataSpec> data;
+  EstimationSpec estimation;
+  MetricsSpec metrics;
+};
+
+/// Reads, parses and checks a problem file (no data is read). Throws ProblemFileError.
+Problem LoadProblem(const std::string& path);
+/// The same from text; `path` names the file in messages and anchors relative data paths.
+Problem ParseProblem(const std::string& text, const std::string& path);
+
+/// One split of one data file, ready for the formulations.
+struct SplitData {
+  std::string name;
+  std::string data_name;
+  SplitRole role = SplitRole::kEstimation;
+  int begin = 0;  // first sample in the file
+  /// Uniformly sampled; u and y in the model's input and output order, named and with units.
+  Experiment experiment;
+  /// The initial state x0 (see DataSpec::initial_state); Fit adds the state guess when
+  /// node_guess = "data".
+  ExperimentSetup setup;
+  SourceLocation where;
+};
+
+/// Reads every data file, validates it and cuts it into splits, in file order. Throws
+/// ProblemFileError naming the [[data]] entry (and the mapping) for every defect.
+std::vector<SplitData> LoadData(const Problem& problem);
+
+}  // namespace graybox::estimators

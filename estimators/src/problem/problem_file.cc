@@ -1,0 +1,330 @@
+// Problem files (problem_file.h, docs/problem-format.md): the entry points, [problem] and [model].
+// [[data]] and the data loading are in problem_data.cc, [estimation] and [metrics] in
+// problem_estimation.cc; the TOML reader they share is problem_file_internal.h.
+#include "graybox/estimators/problem/problem_file.h"
+#include "graybox/util/did_you_mean.h"
+
+#include <toml++/toml.h>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <utility>
+
+#include "graybox/models/block.h"
+#include "problem/problem_file_internal.h"
+
+namespace graybox::estimators {
+
+namespace fs = std::filesystem;
+
+std::string SourceLocation::ToString() const {
+  std::string s = file;
+  if (line > 0) {
+    s += ":" + std::to_string(line);
+    if (column > 0) s += ":" + std::to_string(column);
+  }
+  if (!s.empty()) s += ":";
+  if (!table.empty()) s += (s.empty() ? "[" : " [") + table + "]";
+  return s;
+}
+
+ProblemFileError::ProblemFileError(SourceLocation where, const std::string& message)
+    : std::invalid_argument(where.ToString() + " " + message),
+      where_(std::move(where)),
+      message_(message) {}
+
+const char* SplitRoleName(SplitRole role) {
+  switch (role) {
+    case SplitRole::kEstimation:
+      return "estimation";
+    case SplitRole::kValidation:
+      return "validation";
+    case SplitRole::kTest:
+      return "test";
+  }
+  return "estimation";
+}
+
+namespace internal {
+
+std::string Format(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string Quoted(const std::vector<std::string>& words) {
+  std::string s;
+  for (const auto& w : words) s += (s.empty() ? "'" : ", '") + w + "'";
+  return s.empty() ? "(none)" : s;
+}
+
+std::string Suggestion(const std::string& word, const std::vector<std::string>& candidates) {
+  const std::string hint = util::DidYouMean(word, candidates);
+  return hint.empty() ? "" : "; did you mean '" + hint + "'?";
+}
+
+std::string TypeName(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a float";
+    case toml::node_type::boolean:
+      return "a boolean";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::date:
+    case toml::node_type::time:
+    case toml::node_type::date_time:
+      return "a date/time";
+    default:
+      return "nothing";
+  }
+}
+
+std::string ValueText(const toml::node& n) {
+  if (const auto* s = n.as_string()) return TypeName(n) + " '" + s->get() + "'";
+  if (const auto* i = n.as_integer()) return TypeName(n) + " " + std::to_string(i->get());
+  if (const auto* f = n.as_floating_point()) return TypeName(n) + " " + Format(f->get());
+  if (const auto* b = n.as_boolean()) return TypeName(n) + (b->get() ? " true" : " false");
+  return TypeName(n);
+}
+
+bool GlobMatch(const std::string& pattern, const std::string& text) {
+  std::size_t p = 0, t = 0, star = std::string::npos, mark = 0;
+  while (t < text.size()) {
+    if (p < pattern.size() && pattern[p] == '*') {
+      star = p++;
+      mark = t;
+    } else if (p < pattern.size() && pattern[p] == text[t]) {
+      ++p;
+      ++t;
+    } else if (star != std::string::npos) {
+      p = star + 1;
+      t = ++mark;
+    } else {
+      return false;
+    }
+  }
+  while (p < pattern.size() && pattern[p] == '*') ++p;
+  return p == pattern.size();
+}
+
+// ---- [model] ------------------------------------------------------------------------------------
+
+models::BlockOptions ParseBlockOptions(const Section& s) {
+  models::BlockOptions options;
+  for (auto&& [k, v] : s.table()) {
+    const std::string key(k.str());
+    if (v.is_string()) {
+      options.words[key] = v.as_string()->get();
+    } else if (v.is_boolean()) {
+      options.numbers[key] = {v.as_boolean()->get() ? 1.0 : 0.0};
+    } else if (v.is_number()) {
+      options.numbers[key] = {s.NumberOf(v, key)};
+    } else if (const toml::array* a = v.as_array()) {
+      std::vector<double> values;
+      for (std::size_t i = 0; i < a->size(); ++i) values.push_back(s.NumberOf(*a->get(i), key));
+      options.numbers[key] = values;
+    } else {
+      s.Fail(key, "option '" + key + "': expected a number, an array of numbers or a word, got " +
+                      ValueText(v));
+    }
+  }
+  return options;
+}
+
+// Applies the entry `key` (a parameter name, or a pattern that matched parameter `name`).
+void ApplyParameter(const Section& parameters, const std::string& key, const std::string& name,
+                    const toml::node& node, Problem* problem) {
+  models::ModelParameter* par = nullptr;
+  try {
+    par = &problem->model.Parameter(name);
+  } catch (const std::invalid_argument& e) {
+    parameters.Fail(key, e.what());
+  }
+  std::optional<double> value, lower, upper, scale;
+  std::optional<bool> free;
+  if (node.is_number()) {
+    value = parameters.NumberOf(node, key);
+  } else if (node.is_table()) {
+    const Section p(parameters.file(), *node.as_table(), parameters.Join(key));
+    p.Allow({"value", "lower", "upper", "free", "scale"});
+    value = p.Number("value");
+    // Bounds may be infinite (TOML's inf and -inf); values and scales may not.
+    auto bound = [&](const char* key) -> std::optional<double> {
+      const toml::node* b = p.Get(key);
+      if (!b) return std::nullopt;
+      if (b->is_floating_point() && std::isinf(b->as_floating_point()->get())) {
+        return b->as_floating_point()->get();
+      }
+      return p.NumberOf(*b, key);
+    };
+    lower = bound("lower");
+    upper = bound("upper");
+    scale = p.PositiveNumber("scale");
+    free = p.Bool("free");
+  } else {
+    parameters.Fail(key, "parameter '" + name +
+                             "': expected a number or a table {value, lower, "
+                             "upper, free, scale}, got " +
+                             ValueText(node));
+  }
+  const double lo = lower.value_or(par->lower), hi = upper.value_or(par->upper);
+  if (!(lo <= hi)) {
+    parameters.Fail(key, "parameter '" + name +
+                             "': infeasible bounds: expected lower <= upper, got lower = " +
+                             Format(lo) + " > upper = " + Format(hi));
+  }
+  const double v = value.value_or(par->value);
+  if (v < lo || v > hi) {
+    parameters.Fail(key, "parameter '" + name + "': expected a value in [" + Format(lo) + ", " +
+                             Format(hi) + "], got " + Format(v) +
+                             (value ? "" : " (the block's nominal value)"));
+  }
+  par->lower = lo;
+  par->upper = hi;
+  par->value = v;
+  if (scale) par->scale = *scale;
+  if (free) par->free = *free;
+}
+
+void ParseModel(const Section& root, Problem* problem) {
+  auto model = root.Sub("model");
+  if (!model) root.Fail("", "missing table [model]: expected the model description");
+  const Section& m = *model;
+  m.Allow({"name", "inputs", "blocks", "outputs", "parameters"});
+  problem->model = models::Model(m.String("name").value_or(problem->name));
+  for (const Section& in : m.SubArray("inputs")) {
+    in.Allow({"name", "unit", "description", "min", "max"});
+    const std::string name = in.RequiredString("name");
+    const double lo = in.Number("min").value_or(-1.0), hi = in.Number("max").value_or(1.0);
+    if (!(lo < hi))
+      in.Fail("max", "expected min < max, got [" + Format(lo) + ", " + Format(hi) + "]");
+    try {
+      problem->model.AddInput(name, in.String("unit").value_or(""),
+                              in.String("description").value_or(""), lo, hi);
+    } catch (const std::invalid_argument& e) {
+      in.Fail("name", e.what());
+    }
+  }
+  const auto blocks = m.SubArray("blocks");
+  if (blocks.empty()) m.Fail("", "missing [[model.blocks]]: expected at least one block");
+  for (const Section& b : blocks) {
+    b.Allow({"instance", "type", "options", "inputs", "outputs"});
+    const std::string instance = b.RequiredString("instance");
+    const std::string type = b.RequiredString("type");
+    models::BlockOptions options;
+    if (auto o = b.Sub("options")) options = ParseBlockOptions(*o);
+    std::shared_ptr<const models::Block> block;
+    try {
+      block = models::BlockRegistry::Global().Create(type, options);
+    } catch (const std::invalid_argument& e) {
+      const auto types = models::BlockRegistry::Global().Types();
+      const bool known = std::find(types.begin(), types.end(), type) != types.end();
+      b.Fail(known && b.Has("options") ? "options" : "type", e.what());
+    }
+    const std::vector<std::string> inputs = b.Strings("inputs");
+    const std::vector<std::string> outputs = b.Strings("outputs");
+    try {
+      problem->model.AddBlock(instance, block, inputs, outputs);
+    } catch (const std::invalid_argument& e) {
+      b.Fail("instance", e.what());
+    }
+    problem->blocks.emplace_back(instance, type);
+  }
+  const std::vector<std::string> outputs = m.Strings("outputs");
+  if (outputs.empty()) m.Fail("", "missing key 'outputs': expected the measured output signals");
+  for (const auto& o : outputs) problem->model.AddOutput(o);
+  if (auto parameters = m.Sub("parameters")) {
+    // Patterns ('*' matches any run of characters) first, then exact names, which override.
+    std::map<std::string, std::string> matched_by;
+    for (auto&& [k, v] : parameters->table()) {
+      const std::string key(k.str());
+      if (key.find('*') == std::string::npos) continue;
+      int matches = 0;
+      for (const models::ModelParameter& par : problem->model.parameters()) {
+        if (!GlobMatch(key, par.name)) continue;
+        auto [it, inserted] = matched_by.emplace(par.name, key);
+        if (!inserted) {
+          parameters->Fail(key, "parameter '" + par.name + "' is matched by the patterns '" +
+                                    it->second + "' and '" + key +
+                                    "': expected at most one pattern per parameter");
+        }
+        ApplyParameter(*parameters, key, par.name, v, problem);
+        ++matches;
+      }
+      if (matches == 0) {
+        parameters->Fail(key, "pattern '" + key + "' matches no model parameter");
+      }
+    }
+    for (auto&& [k, v] : parameters->table()) {
+      const std::string key(k.str());
+      if (key.find('*') == std::string::npos) ApplyParameter(*parameters, key, key, v, problem);
+    }
+  }
+  try {
+    problem->built = problem->model.Build();
+  } catch (const std::invalid_argument& e) {
+    m.Fail("", e.what());
+  }
+}
+
+}  // namespace internal
+
+Problem ParseProblem(const std::string& text, const std::string& path) {
+  Problem problem;
+  problem.path = path;
+  problem.directory = fs::path(path).parent_path().string();
+  if (problem.directory.empty()) problem.directory = ".";
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    SourceLocation where;
+    where.file = path;
+    where.line = static_cast<int>(e.source().begin.line);
+    where.column = static_cast<int>(e.source().begin.column);
+    throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
+  }
+  const internal::Section top(path, root, "");
+  top.Allow({"problem", "model", "data", "estimation", "metrics"});
+  problem.name = fs::path(path).stem().string();
+  if (auto p = top.Sub("problem")) {
+    p->Allow({"name", "description"});
+    problem.name = p->String("name").value_or(problem.name);
+    problem.description = p->String("description").value_or("");
+  }
+  internal::ParseModel(top, &problem);
+  internal::ParseData(top, &problem);
+  internal::ParseEstimation(top, &problem);
+  internal::ParseMetrics(top, &problem);
+  // Every model output must be measured in every data entry (ParseMapping) and equation error
+  // needs the outputs it differentiates; nothing else to cross-check before the data are read.
+  return problem;
+}
+
+Problem LoadProblem(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    SourceLocation where;
+    where.file = path;
+    throw ProblemFileError(where, "cannot read the problem file: " +
+                                      std::string(fs::exists(path) ? "permission denied or not a "
+                                                                     "regular file"
+                                                                   : "file not found"));
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseProblem(text.str(), path);
+}
+
+}  // namespace graybox::estimators

@@ -144,7 +144,7 @@ TEST(Cli, EmpsClosedLoopOnCeresAgreesWithIpopt) {
 // the held-out pulses file the command's relative error must fall below the physics-only model's
 // (10.15 %, problems/emps/README.md; measured 9.82 % with the network), the position stays at the
 // physics-only level, and the physical parameters stay identifiable (the decay keeps the network
-// from absorbing the viscous term: Fv 145 N s/m with a 2.4 % standard error).
+// from absorbing the viscous term: Fv 145 N s/m with a 0.6 % standard error).
 constexpr double kPhysicsOnlyPulsesCommandError = 10.0;    // %, below physics-only 10.15 %
 constexpr double kPhysicsOnlyPulsesPositionError = 0.003;  // %, physics-only 0.0028 %
 constexpr double kIdentifiableRelativeStd = 0.05;

@@ -63,10 +63,13 @@ SplitEvaluation EvaluateSplit(const Problem& problem, const SplitData& split,
   const Trajectory traj =
       MakeIntegrator(m, e.dt, problem.estimation.integrator)->Simulate(x0, e.u, values);
   ev.simulated = traj.y;
+  ev.states = traj.x;
+  ev.inputs = e.u;
   ev.simulation_ok = traj.ok;
   ev.failed_at = traj.failed_at;
   if (!traj.ok && traj.failed_at >= 0) {
     ev.simulated.bottomRows(ev.simulated.rows() - traj.failed_at).setConstant(std::nan(""));
+    ev.states.bottomRows(ev.states.rows() - traj.failed_at).setConstant(std::nan(""));
   }
   ev.simulation = ComputeMetrics(e, ev.simulated);
   EvaluateNStep(problem, split, values, &ev);

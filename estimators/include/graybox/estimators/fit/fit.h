@@ -64,6 +64,8 @@ struct SplitEvaluation {
   Eigen::VectorXd time;       // N
   Eigen::MatrixXd measured;   // N x ny
   Eigen::MatrixXd simulated;  // N x ny (NaN after a divergence)
+  Eigen::MatrixXd states;     // N x nx, the simulated states (NaN after a divergence)
+  Eigen::MatrixXd inputs;     // N x nu, the measured inputs the simulation was driven by
   Eigen::VectorXd x0;
   bool simulation_ok = true;
   int failed_at = -1;  // first sample the integrator could not reach, or -1

@@ -1,7 +1,7 @@
 // graybox: the command-line tool. This is the only translation unit that includes CLI11 (about
 // 6.5 s of compile time); the commands live in apps/src.
 //
-//   graybox fit PROBLEM --out DIR [--verbose] [--check-derivatives]
+//   graybox fit PROBLEM --out DIR [--from RESULT] [--verbose] [--check-derivatives]
 //   graybox simulate PROBLEM --params FILE --out DIR [--check-derivatives]
 //   graybox check PROBLEM [--check-derivatives]
 //
@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
   fit_cmd->add_option("problem", fit.problem, "problem file (TOML)")->required();
   fit_cmd->add_option("--out,-o", fit.out, "output directory (result.json, plots/, traces/)")
       ->required();
+  fit_cmd->add_option("--from", fit.params,
+                      "start from the parameter values of an earlier result.json (or a TOML "
+                      "table \"inst.param\" = value); free/fixed and bounds stay the file's");
   fit_cmd->add_flag("--verbose,-v", fit.verbose, "print the solver's iterations");
   fit_cmd->add_flag("--check-derivatives", fit.check_derivatives,
                     "check the derivatives of the model and of the assembled NLP by finite "

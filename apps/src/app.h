@@ -30,7 +30,7 @@ inline constexpr int kExitSolverFailure = 3;
 struct CommandOptions {
   std::string problem;   // path of the problem file
   std::string out;       // output directory
-  std::string params;    // simulate: result.json or TOML parameter file
+  std::string params;    // simulate --params / fit --from: result.json or TOML parameter file
   bool verbose = false;  // solver iteration lines
   bool check_derivatives = false;
   std::string command_line;  // recorded in result.json

@@ -95,11 +95,30 @@ int RunFit(const CommandOptions& o) {
     report.command = "fit";
     report.command_line = o.command_line;
     Timer t;
-    const Problem problem = estimators::LoadProblem(o.problem);
+    Problem problem = estimators::LoadProblem(o.problem);
     report.problem = &problem;
     report.seed = problem.estimation.seed;
     Progress("graybox fit: problem '" + problem.name + "' (" + o.problem + ")");
     CheckOutputDirectory(o.out);
+    if (!o.params.empty()) {
+      // --from: the starting values of an earlier run (a candidate the diagnosis tried, a fit
+      // to continue); which parameters are free and their bounds stay the problem file's.
+      const std::map<std::string, double> values = LoadParameterValues(o.params, problem.built);
+      for (const auto& [name, value] : values) {
+        models::ModelParameter& p = problem.built.parameters[problem.built.ParameterIndex(name)];
+        if (p.free && (value < p.lower || value > p.upper)) {
+          throw estimators::ProblemFileError(
+              estimators::SourceLocation{o.params, "parameters", 0, 0},
+              "'" + name + "' = " + Sci(value) + ": expected a starting value within the " +
+                  "problem's bounds [" + Sci(p.lower) + ", " + Sci(p.upper) + "]");
+        }
+        p.value = value;
+        problem.model.SetParameter(name, value);
+      }
+      report.parameter_file = o.params;
+      Progress("  starting from " + std::to_string(values.size()) + " parameter values of " +
+               o.params);
+    }
     const std::vector<SplitData> splits = estimators::LoadData(problem);
     PrintProblem(problem, splits);
     report.seconds.emplace_back("load", t.Seconds());

@@ -98,6 +98,7 @@ std::string ReportJson(const RunReport& report) {
     f["constraints"] = report.fit.num_constraints;
     f["residuals"] = report.fit.num_residuals;
     j["formulation"] = f;
+    if (!report.parameter_file.empty()) j["from"] = report.parameter_file;  // fit --from
   } else {
     j["parameter_file"] = report.parameter_file;
   }

@@ -206,6 +206,23 @@ TEST_F(GeneratedCli, FitRecoversKnownParametersAndSimulateReadsTheResult) {
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("did you mean 'load.mass'"), std::string::npos) << bad.output;
   EXPECT_FALSE(fs::exists(dir_ / "sim2"));
+  // fit --from the result: starts at the fitted values and lands on the same optimum in fewer
+  // iterations than the cold fit; a starting value outside the file's bounds is bad input.
+  const RunResult again = RunGraybox("fit pushed.toml --from out/result.json --out again",
+                                     dir_ / "log4.txt", dir_.path().string());
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  const Json refit = ReadJson(dir_ / "again/result.json");
+  EXPECT_EQ(refit["from"], "out/result.json");
+  EXPECT_EQ(refit["parameters"]["load.mass"]["initial"].get<double>(), Value(result, "load.mass"));
+  EXPECT_NEAR(Value(refit, "load.mass"), Value(result, "load.mass"),
+              kRecoveryTolerance * kTrueMass);
+  EXPECT_LE(refit["status"]["iterations"].get<int>(), result["status"]["iterations"].get<int>());
+  WriteText(dir_ / "far.toml", "\"load.mass\" = -5.0\n");
+  const RunResult far = RunGraybox("fit pushed.toml --from far.toml --out far", dir_ / "log5.txt",
+                                   dir_.path().string());
+  EXPECT_EQ(far.exit_code, 2) << far.output;
+  EXPECT_NE(far.output.find("within the problem's bounds"), std::string::npos) << far.output;
+  EXPECT_FALSE(fs::exists(dir_ / "far"));
 }
 
 // Single shooting simulates through the integrator of [estimation.integrator] (here CVODES with

@@ -26,16 +26,7 @@ void MultipleShootingOptions::Validate() const {
 }
 
 void ShootingProblem::SetFixedValue(int parameter, double value) {
-  const int slot = parameters.FixedSlot(parameter);
-  if (slot < 0) {
-    throw std::invalid_argument("SetFixedValue: parameter " + std::to_string(parameter) +
-                                " is not a fixed parameter of this problem");
-  }
-  if (!std::isfinite(value)) {
-    throw std::invalid_argument("SetFixedValue: expected a finite value, got " +
-                                std::to_string(value));
-  }
-  parameters.values[parameter] = value;
+  const int slot = parameters.SetFixedValue(parameter, value);
   if (shared_values) (*shared_values)[parameter] = value;
   for (std::size_t g : fixed_value_groups) nlp.SetGroupDataRow(g, slot, value);
   nlp.ClearCaches();

@@ -40,15 +40,7 @@ void NStepLossOptions::Validate() const {
 }
 
 void NStepLossProblem::SetFixedValue(int parameter, double value) {
-  if (parameters.FixedSlot(parameter) < 0) {
-    throw std::invalid_argument("SetFixedValue: parameter " + std::to_string(parameter) +
-                                " is not a fixed parameter of this problem");
-  }
-  if (!std::isfinite(value)) {
-    throw std::invalid_argument("SetFixedValue: expected a finite value, got " +
-                                std::to_string(value));
-  }
-  parameters.values[parameter] = value;
+  parameters.SetFixedValue(parameter, value);
   (*shared_values)[parameter] = value;
   nlp.ClearCaches();
 }

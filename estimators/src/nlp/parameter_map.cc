@@ -44,6 +44,20 @@ std::vector<expr::Expr> ParameterMap::ParameterExprs(const std::vector<expr::Exp
   return p;
 }
 
+int ParameterMap::SetFixedValue(int parameter, double value) {
+  const int slot = FixedSlot(parameter);
+  if (slot < 0) {
+    throw std::invalid_argument("SetFixedValue: parameter " + std::to_string(parameter) +
+                                " is not a fixed parameter of this problem");
+  }
+  if (!std::isfinite(value)) {
+    throw std::invalid_argument("SetFixedValue: expected a finite value, got " +
+                                std::to_string(value));
+  }
+  values[parameter] = value;
+  return slot;
+}
+
 Eigen::VectorXd ParameterMap::FixedValues() const {
   Eigen::VectorXd q(NumFixed());
   for (int j = 0; j < NumFixed(); ++j) q[j] = values[fixed[j]];

@@ -34,6 +34,10 @@ struct ParameterMap {
   /// stores as data). theta has NumFree() entries, q NumFixed().
   std::vector<expr::Expr> ParameterExprs(const std::vector<expr::Expr>& theta,
                                          const std::vector<expr::Expr>& q) const;
+  /// Sets fixed parameter `parameter` (model index) to `value` in `values` and returns its slot
+  /// in `fixed`; std::invalid_argument when it is free or the value is not finite. A
+  /// formulation's SetFixedValue calls this, then writes the value where its graph reads it.
+  int SetFixedValue(int parameter, double value);
   /// The values of the fixed parameters, in the order of `fixed`.
   Eigen::VectorXd FixedValues() const;
   /// All model parameter values encoded by the decision vector w (its first NumFree() entries).

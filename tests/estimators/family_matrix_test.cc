@@ -18,7 +18,7 @@
 //   EquationErrorCeres     equation_error / ceres, form "state_derivative": the states and their
 //                          derivatives derived from the measured outputs by the pipeline
 //                          (EquationErrorSpec: zero-phase low-pass, central differences), the
-//                          held inputs as their means over each difference (HeldInputMeans)
+//                          inputs paired as held commands (input_timing = "held")
 //   SingleShootingCeres    single_shooting / ceres through the problem's integrator: RK4, and
 //                          CVODES for the stiff arm
 // Every cell runs except PneumaticArm x EquationError, which is skipped (see kArmEquationError).
@@ -243,19 +243,6 @@ Eigen::VectorXd MultiSine(int n, double dt, double rest, double offset,
     v[k] = rest + w * s;
   }
   return v;
-}
-
-/// The input that goes with a central difference of a record whose inputs are held over each
-/// sample (as every record here is simulated, and as the library's simulation methods hold them):
-/// the difference at t_k is the mean derivative over [t_(k-1), t_(k+1)], during which the input
-/// is u_(k-1) and then u_k, so row k is their mean (row 0 keeps u_0). Equation error through Fit
-/// pairs the derivative at t_k with u_k itself, half a sample late: with the raw inputs the
-/// friction drive's viscous coefficient came out 13 % low, the DC motor's inductance 15 % high
-/// and the SEA motor inertia 4 % high, noise-free data alike (a bias, not noise).
-Eigen::MatrixXd HeldInputMeans(const Eigen::MatrixXd& u) {
-  Eigen::MatrixXd m = u;
-  m.bottomRows(u.rows() - 1) = 0.5 * (u.topRows(u.rows() - 1) + u.bottomRows(u.rows() - 1));
-  return m;
 }
 
 /// Sets `values` (by qualified name) without freeing them: known constants of a family.
@@ -621,6 +608,11 @@ EstimationSpec Estimation(const FamilyData& d, Method method) {
   ee.lowpass_hz = s.ee_cutoff_hz;
   ee.lowpass_order = kFilterOrder;
   ee.skip_samples = kEdgeSamples;
+  // Every record here is simulated with inputs held over each sample: the central difference at
+  // t_k spans u_(k-1) and u_k. Pairing it with u_k alone ("sampled") is half a sample late and
+  // biased the friction drive's viscous coefficient 13 % low, the DC motor's inductance 15 % high
+  // and the SEA motor inertia 4 % high, noise-free data alike.
+  ee.input_timing = "held";
   switch (method) {
     case Method::kMultipleShootingIpopt:
       e.method = "multiple_shooting";
@@ -662,15 +654,13 @@ EstimationSpec Estimation(const FamilyData& d, Method method) {
 }
 
 /// Fit on the family's record (one estimation split from the known initial state), with the
-/// covariance only where a cell checks it. Equation error gets the inputs as HeldInputMeans.
+/// covariance only where a cell checks it.
 FitResult FitFamily(const FamilyData& d, const EstimationSpec& estimation, bool covariance) {
   const Problem problem = MakeProblem(d.experiment.name, StartModel(d), estimation);
   FitOptions options;
   options.compute_covariance = covariance;
   options.evaluate_splits = false;
-  Experiment experiment = d.experiment;
-  if (estimation.method == "equation_error") experiment.u = HeldInputMeans(experiment.u);
-  return Fit(problem, {MakeSplit("estimation", SplitRole::kEstimation, experiment, d.spec.x0)},
+  return Fit(problem, {MakeSplit("estimation", SplitRole::kEstimation, d.experiment, d.spec.x0)},
              options);
 }
 
@@ -705,8 +695,8 @@ struct Cell {
 // pressures measured, speed differenced), but the chamber pressures relax within ~2 ms, a fifth of
 // the 10 ms sample, so their derivatives cannot be estimated from the samples: through Fit the
 // flow constant alpha came out 3.3 % low (2.7 % noise-free: a bias, not noise; 6.6 % without
-// HeldInputMeans). Sampling ten times faster would make the record ten times longer. Collocation
-// covers the arm's simulation-free formulation instead.
+// input_timing = "held"). Sampling ten times faster would make the record ten times longer.
+// Collocation covers the arm's simulation-free formulation instead.
 constexpr const char* kArmEquationError =
     "the chamber pressures relax within ~2 ms, a fifth of the 10 ms sample: their derivatives "
     "cannot be estimated from the samples (alpha biased 3.3 % low); collocation covers the arm";

@@ -52,7 +52,13 @@ FullRate FullRateSignals(const estimators::Problem& problem, const EquationModel
   const bool fft = spec.differentiation == "fft";
   const Eigen::MatrixXd xdot = fft ? estimators::FftDerivative(x, e.dt, spec.fft_cutoff_bin)
                                    : estimators::CentralDifference(x, e.dt);
-  const Eigen::MatrixXd u = fft ? estimators::FftLowPass(e.u, spec.fft_cutoff_bin) : e.u;
+  Eigen::MatrixXd u = fft ? estimators::FftLowPass(e.u, spec.fft_cutoff_bin) : e.u;
+  if (spec.input_timing == "held" && u.rows() > 1) {
+    // Zero-order hold: the input's mean over the central difference's [t_{k-1}, t_{k+1}].
+    const Eigen::MatrixXd sampled = u;
+    u.bottomRows(u.rows() - 1) =
+        0.5 * (sampled.topRows(u.rows() - 1) + sampled.bottomRows(u.rows() - 1));
+  }
   const int n = e.NumSamples();
   const int kept = n - spec.skip_samples;
   if (kept < 2) {

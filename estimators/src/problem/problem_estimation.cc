@@ -206,7 +206,7 @@ void ParseEquationError(const Section& e, const Problem& problem, EquationErrorS
                         bool states_only) {
   e.Allow({"form", "residual_states", "inverse_inputs", "differentiate", "differentiation",
            "fft_cutoff_bin", "lowpass_hz", "lowpass_order", "lowpass_padding", "skip_samples",
-           "decimate", "decimation", "weights"});
+           "decimate", "decimation", "weights", "input_timing"});
   const models::StateSpaceModel& m = problem.built;
   std::vector<std::string> states, inputs, outputs;
   for (const auto& s : m.states) states.push_back(s.name);
@@ -292,6 +292,7 @@ void ParseEquationError(const Section& e, const Problem& problem, EquationErrorS
   if (auto v = e.Integer("skip_samples", 0, 1000000000)) spec->skip_samples = static_cast<int>(*v);
   if (auto v = e.Integer("decimate", 1, 1000)) spec->decimate = static_cast<int>(*v);
   spec->decimation = e.Choice("decimation", {"auto", "parallel", "signals"}).value_or("auto");
+  spec->input_timing = e.Choice("input_timing", {"sampled", "held"}).value_or("sampled");
   const std::vector<std::string>& channels =
       spec->form == "inverse" ? spec->inverse_inputs : spec->residual_states;
   spec->weights = ParseWeights(e, "weights", channels, "a residual channel");

@@ -25,12 +25,11 @@
 //
 // Re-fitting cheaply: FitSession formulates once and solves many times. Fixed parameters are data
 // of the formulation (parameter_map.h), so SetParameterValue on a fixed parameter changes numbers
-// and not the symbolic graph; a parameter that was free when the session was built can be fixed
-// and freed again by its bounds. Solve(start) warm-starts from an earlier result (the primal
-// point, and for Ipopt the multipliers). Freeing a parameter that was fixed when the session was
-// built changes the NLP's variables: the session then formulates again (counted in
-// num_formulations()). Equation error and the N-step loss without residual blocks are cheap to
-// formulate; they are rebuilt the same way.
+// and not the symbolic graph (multiple and single shooting, collocation, the N-step loss; equation
+// error evaluates the model in its preprocessing and formulates again, which is cheap).
+// Solve(start) warm-starts from an earlier result (the primal point, and for Ipopt the
+// multipliers). Fixing or freeing a parameter changes the NLP's variables: the session then
+// formulates again before the next solve (counted in num_formulations()).
 //
 // Threads. A FitSession is used by one thread at a time. Several sessions may solve at once:
 // Ceres solves run in parallel, Ipopt solves are serialised by a process-wide lock (Ipopt 3.11.9

@@ -1,0 +1,150 @@
+// ScreenAndRefit: which unmodelled effect causes the gap. Every candidate (candidates.h) is first
+// screened by a score (Lagrange-multiplier) test at its neutral value, then the best are re-fitted,
+// warm-started from the nominal fit, and ranked by their validation error.
+//
+//   const estimators::FitResult nominal = estimators::Fit(problem, splits);
+//   const Diagnosis d = ScreenAndRefit(problem, splits, nominal);
+//   std::cout << d.BriefReport() << "\n" << d.FullReport();
+//   d.refits.front().effect   // the best successful re-fit ("coulomb"), if refits[0].ok
+//
+// ---- The score test
+// ------------------------------------------------------------------------------ For a candidate
+// the augmented problem is problem.model with every parameter at its value in `nominal`, plus the
+// candidate's block at its neutral value (Candidate::apply); the nominal free parameters and
+// Candidate::screened are free. Its NLP (FitSession::nlp(): the formulation of
+// problem.estimation.method on the estimation splits) has variables w = (theta, nu): the free
+// parameters theta first, scaled (parameter_map.h), then the method's other variables nu
+// (shooting nodes, initial states), and residuals r(w), equality constraints c(w) = 0 (multiple
+// shooting's continuity on Ipopt). The test is evaluated at the restricted estimate w0: the
+// nominal optimum with the new parameters at neutral. It is nominal.solver_result.w with the new
+// parameters' scaled neutral values inserted after the nominal free parameters when the augmented
+// NLP has exactly that many more variables (the candidate adds no state); otherwise (a candidate
+// with a state adds shooting-node entries) the augmented problem is solved once with the new
+// parameters held at neutral and w0 is that solution.
+//
+// At w0, with J = dr/dw (every variable whose bounds differ; the nuisance variables nu included,
+// so that the inverse below marginalises them), g = J^T r (the gradient of 1/2 |r|^2), A = dc/dw,
+// H = J^T J (Gauss-Newton information, plus a ridge of 1e-9 max diag(H) that only acts on
+// directions the data do not determine),
+//
+//   d solves   [H  A^T] [d]   [-g]          LM = -g^T d / sigma^2
+//              [A  0  ] [l] = [ 0],
+//
+// i.e. LM = g^T Z (Z^T H Z)^-1 Z^T g / sigma^2 with Z a basis of the null space of A: the decrease
+// of |r|^2 one Gauss-Newton step on the constraint manifold would give, in units of the noise
+// variance sigma^2 = |r(w0)|^2 / (N - n_eff), N = number of residuals, n_eff = free variables minus
+// equality constraints. At w0 the nominal directions have zero projected gradient, so LM measures
+// the new parameters' gradient weighted by the inverse of their marginal information. Under the
+// null hypothesis (the effect is absent) LM ~ chi^2(k), k = |Candidate::screened|. The p-value is
+// the chi-square survival function Q(k/2, LM/2) (regularised upper incomplete gamma, series and
+// continued fraction). A new parameter whose direction repeats one the model has (power-law
+// friction at exponent 1 next to viscous friction) adds nothing to LM; k still counts it, so the
+// test is conservative there. A neutral value at a bound (a friction level >= 0) makes the true
+// null distribution a mixture with half the mass at 0: the chi^2(k) p-value is then conservative
+// too. Regularisation terms of the objective are not in g.
+//
+// ---- Re-fits
+// ------------------------------------------------------------------------------------- The
+// refit_top candidates with the largest LM (finite scores only) are re-fitted one after the other:
+// augmented problem as above, Candidate::refit free, started from nominal values plus the neutral
+// (or held nominal) values of the new parameters, FitSession::Solve. A re-fit is ok when the
+// solver's point is usable (SolverResult::IsSolutionUsable) and its validation simulation is
+// finite; a failure is reported with its reason and never ranked as a success. at_bound is true
+// when a parameter of Candidate::refit ends at a bound (FitParameter::at_bound): reported, and
+// ranked after the interior re-fits (an effect that ends at its bound did not help).
+//
+// Validation metric: the mean over the splits of role validation of the overall simulation NRMSE
+// (FitResult::evaluations, metrics.h); the test splits when there is no validation split; every
+// split when there is neither (Diagnosis::validation_role says which). gap_closed_fraction =
+// (before - after) / before: the share of the nominal validation NRMSE the effect removes (no
+// flexible reference error is subtracted yet).
+//
+// Information criteria from the estimation residuals: with N = FitResult::num_residuals,
+// RSS = 2 * SolverResult::cost (the least-squares cost 1/2 |r|^2 of the method) and k the number of
+// free model parameters,
+//   AIC = N ln(RSS / N) + 2 k,      BIC = N ln(RSS / N) + k ln N.
+// Ranking: ok and interior first, then ok at a bound, then failures; within a group by validation
+// NRMSE, two NRMSEs within ScreeningOptions::tie_tolerance (relative) ordered by BIC.
+//
+// Failure behaviour. Invalid options throw std::invalid_argument (ScreeningOptions::Validate). A
+// candidate whose augmented problem cannot be built or evaluated gets a NaN score and its reason
+// in CandidateScore::failure; it is not re-fitted.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "graybox/diagnosis/candidates.h"
+#include "graybox/estimators/fit/fit.h"
+
+namespace graybox::diagnosis {
+
+struct ScreeningOptions {
+  /// How many of the best-screened candidates to re-fit (>= 0).
+  int refit_top = 3;
+  /// Which candidates to propose.
+  CandidateOptions candidates;
+  /// Relative difference of two validation NRMSEs below which BIC decides the order (>= 0).
+  double tie_tolerance = 1e-3;
+  /// Progress lines ("screening coulomb (1/7)"); none when empty.
+  std::function<void(const std::string&)> progress;
+  /// Throws std::invalid_argument naming the first invalid field and its value.
+  void Validate() const;
+};
+
+/// The score test of one candidate.
+struct CandidateScore {
+  Candidate candidate;
+  double score = 0.0;             // LM statistic (NaN on failure)
+  double p_value = 1.0;           // chi^2(dof) survival of LM (NaN on failure)
+  int dof = 0;                    // |Candidate::screened|
+  double sigma2 = 0.0;            // |r|^2 / (N - n_eff)
+  bool restricted_solve = false;  // w0 came from a restricted solve, not the nominal point
+  std::string failure;            // empty unless the test could not be evaluated
+};
+
+/// The re-fit of one candidate.
+struct RefitResult {
+  std::string effect, detail, attachment;
+  bool ok = false;
+  bool at_bound = false;
+  std::string failure;  // why not ok
+  double validation_nrmse_before = 0.0, validation_nrmse_after = 0.0;
+  double gap_closed_fraction = 0.0;  // (before - after) / before
+  double aic = 0.0, bic = 0.0;
+  double score = 0.0;  // its screening LM
+  /// The candidate's parameters after the re-fit (values, standard errors, intervals, bounds).
+  std::vector<estimators::FitParameter> parameters;
+  estimators::FitResult fit;
+};
+
+struct Diagnosis {
+  /// Every candidate with its score, by LM descending (failures last).
+  std::vector<CandidateScore> screened;
+  /// The re-fits, ranked (see the file comment).
+  std::vector<RefitResult> refits;
+  std::string validation_role;  // "validation", "test" or "all"
+  double nominal_validation_nrmse = 0.0;
+  double nominal_aic = 0.0, nominal_bic = 0.0;
+
+  /// "best: coulomb on velocity load.qd -> force force, validation NRMSE 0.21 -> 0.05 (76 % of
+  /// the gap); screened 6, re-fitted 3".
+  std::string BriefReport() const;
+  /// The brief line, the screening table (effect, detail, attachment, LM, dof, p) and the re-fit
+  /// table (NRMSE before/after, gap closed, AIC, BIC, status) with each re-fit's parameters.
+  std::string FullReport() const;
+};
+
+/// Screens every candidate of EnumerateCandidates(problem, options.candidates) against the
+/// nominal fit `nominal` (estimators::Fit(problem, splits)) and re-fits the best. See the file
+/// comment.
+Diagnosis ScreenAndRefit(const estimators::Problem& problem,
+                         const std::vector<estimators::SplitData>& splits,
+                         const estimators::FitResult& nominal,
+                         const ScreeningOptions& options = {});
+
+/// The chi-square survival function P(X > x), X ~ chi^2(dof): Q(dof/2, x/2). 1 for x <= 0;
+/// std::invalid_argument for dof < 1.
+double ChiSquareSurvival(double x, int dof);
+
+}  // namespace graybox::diagnosis

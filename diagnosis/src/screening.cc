@@ -1,0 +1,471 @@
+#include "graybox/diagnosis/screening.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Sparse>
+#include <Eigen/SparseLU>
+
+#include "graybox/estimators/nlp/nlp.h"
+
+namespace graybox::diagnosis {
+namespace {
+
+namespace est = graybox::estimators;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Ridge on H relative to its largest diagonal entry: far below any direction the data determine
+// (condition numbers of scaled identification problems stay well under 1e9), large enough to
+// make directions without information (a position node no output sees) solvable.
+constexpr double kRidge = 1e-9;
+// Regularisation of the multiplier block of the KKT matrix, relative to max diag(H): keeps a
+// redundant constraint row from making it singular, changes d by O(1e-14).
+constexpr double kMultiplierRidge = 1e-14;
+
+std::string Format(const char* fmt, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), fmt, v);
+  return buf;
+}
+
+// The augmented problem of the file comment: nominal values, candidate at neutral; for a re-fit
+// the candidate's refit parameters are free.
+est::Problem Augmented(const est::Problem& problem, const est::FitResult& nominal,
+                       const Candidate& candidate, bool refit) {
+  models::Model m = problem.model;
+  for (int i = 0; i < problem.built.NumParameters(); ++i) {
+    m.Parameter(problem.built.parameters[i].name).value = nominal.values[i];
+  }
+  candidate.apply(&m);
+  if (refit) {
+    for (const auto& q : candidate.refit) m.Free(q);
+  }
+  est::Problem aug = problem;
+  aug.model = m;
+  aug.built = m.Build();
+  return aug;
+}
+
+// The splits with the initial state (and a state guess, when given) extended by zeros for the
+// states the candidate adds (appended after the model's own).
+std::vector<est::SplitData> AugmentedSplits(const std::vector<est::SplitData>& splits,
+                                            int num_states) {
+  std::vector<est::SplitData> out = splits;
+  for (est::SplitData& s : out) {
+    const Eigen::Index old = s.setup.x0.size();
+    if (old >= num_states) continue;
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(num_states);
+    x0.head(old) = s.setup.x0;
+    s.setup.x0 = x0;
+    if (s.setup.state_guess.size() > 0) {
+      Eigen::MatrixXd guess = Eigen::MatrixXd::Zero(s.setup.state_guess.rows(), num_states);
+      guess.leftCols(s.setup.state_guess.cols()) = s.setup.state_guess;
+      s.setup.state_guess = guess;
+    }
+  }
+  return out;
+}
+
+int NumFree(const std::vector<models::ModelParameter>& parameters) {
+  int n = 0;
+  for (const auto& p : parameters) n += p.free ? 1 : 0;
+  return n;
+}
+
+Eigen::SparseMatrix<double> Triplets(int rows, int cols, const std::vector<int>& r,
+                                     const std::vector<int>& c, const Eigen::VectorXd& v) {
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(v.size());
+  for (Eigen::Index k = 0; k < v.size(); ++k) t.emplace_back(r[k], c[k], v[k]);
+  Eigen::SparseMatrix<double> m(rows, cols);
+  m.setFromTriplets(t.begin(), t.end());
+  return m;
+}
+
+// LM statistic at w (see the header). Throws std::runtime_error when the NLP cannot be evaluated.
+void ScoreAt(const est::Nlp& nlp, const Eigen::VectorXd& w, CandidateScore* out) {
+  const int n = nlp.NumVariables();
+  const int m = nlp.NumResiduals();
+  Eigen::VectorXd r(m);
+  est::NlpEvalStatus s = nlp.Residuals(w.data(), r.data());
+  if (!s.ok) throw std::runtime_error("residuals: " + s.message);
+  Eigen::VectorXd jv(nlp.ResidualJacobianRows().size());
+  s = nlp.ResidualJacobianValues(w.data(), jv.data());
+  if (!s.ok) throw std::runtime_error("residual Jacobian: " + s.message);
+  if (!r.allFinite() || !jv.allFinite()) throw std::runtime_error("non-finite residuals");
+  // Free columns.
+  std::vector<int> column(n, -1);
+  int nf = 0;
+  for (int i = 0; i < n; ++i) {
+    if (nlp.lbw()[i] < nlp.ubw()[i]) column[i] = nf++;
+  }
+  Eigen::SparseMatrix<double> J =
+      Triplets(m, n, nlp.ResidualJacobianRows(), nlp.ResidualJacobianCols(), jv);
+  Eigen::SparseMatrix<double> P(n, nf);  // selects the free columns
+  {
+    std::vector<Eigen::Triplet<double>> t;
+    for (int i = 0; i < n; ++i) {
+      if (column[i] >= 0) t.emplace_back(i, column[i], 1.0);
+    }
+    P.setFromTriplets(t.begin(), t.end());
+  }
+  const Eigen::SparseMatrix<double> Jf = J * P;
+  Eigen::SparseMatrix<double> H = Eigen::SparseMatrix<double>(Jf.transpose()) * Jf;
+  const Eigen::VectorXd g = Jf.transpose() * r;
+  // Equality constraints on the free columns.
+  Eigen::SparseMatrix<double> A(0, nf);
+  if (nlp.NumConstraints() > 0) {
+    Eigen::VectorXd cv(nlp.JacobianRows().size());
+    s = nlp.JacobianValues(w.data(), cv.data());
+    if (!s.ok) throw std::runtime_error("constraint Jacobian: " + s.message);
+    const Eigen::SparseMatrix<double> Af =
+        Triplets(nlp.NumConstraints(), n, nlp.JacobianRows(), nlp.JacobianCols(), cv) * P;
+    const Eigen::VectorXd lbg = nlp.lbg(), ubg = nlp.ubg();
+    Eigen::SparseMatrix<double, Eigen::RowMajor> rows(Af);
+    std::vector<Eigen::Triplet<double>> t;
+    int ce = 0;
+    for (int i = 0; i < rows.rows(); ++i) {
+      if (lbg[i] != ubg[i] || rows.row(i).nonZeros() == 0) continue;
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(rows, i); it; ++it) {
+        t.emplace_back(ce, it.col(), it.value());
+      }
+      ++ce;
+    }
+    A.resize(ce, nf);
+    A.setFromTriplets(t.begin(), t.end());
+  }
+  const int ce = static_cast<int>(A.rows());
+  double hmax = 0.0;
+  for (int i = 0; i < nf; ++i) hmax = std::max(hmax, H.coeff(i, i));
+  if (!(hmax > 0.0)) throw std::runtime_error("the residuals do not depend on the variables");
+  std::vector<Eigen::Triplet<double>> k;
+  for (int j = 0; j < H.outerSize(); ++j) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(H, j); it; ++it) {
+      k.emplace_back(it.row(), it.col(), it.value());
+    }
+  }
+  for (int i = 0; i < nf; ++i) k.emplace_back(i, i, kRidge * hmax);
+  for (int j = 0; j < A.outerSize(); ++j) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(A, j); it; ++it) {
+      k.emplace_back(nf + it.row(), it.col(), it.value());
+      k.emplace_back(it.col(), nf + it.row(), it.value());
+    }
+  }
+  for (int i = 0; i < ce; ++i) k.emplace_back(nf + i, nf + i, -kMultiplierRidge * hmax);
+  Eigen::SparseMatrix<double> K(nf + ce, nf + ce);
+  K.setFromTriplets(k.begin(), k.end());
+  K.makeCompressed();
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+  lu.compute(K);
+  if (lu.info() != Eigen::Success) throw std::runtime_error("the KKT matrix is singular");
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(nf + ce);
+  rhs.head(nf) = -g;
+  const Eigen::VectorXd d = lu.solve(rhs);
+  if (lu.info() != Eigen::Success || !d.allFinite()) {
+    throw std::runtime_error("the KKT solve failed");
+  }
+  const int dof_noise = std::max(1, m - (nf - ce));
+  out->sigma2 = r.squaredNorm() / dof_noise;
+  if (!(out->sigma2 > 0.0)) throw std::runtime_error("zero residuals: no noise level");
+  out->score = std::max(0.0, -g.dot(d.head(nf))) / out->sigma2;
+}
+
+CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                     const est::FitResult& nominal, const Candidate& candidate) {
+  CandidateScore out;
+  out.candidate = candidate;
+  out.dof = static_cast<int>(candidate.screened.size());
+  try {
+    if (out.dof == 0) throw std::runtime_error("no parameter with a neutral value to test");
+    const est::Problem aug = Augmented(problem, nominal, candidate, false);
+    est::FitOptions fo;
+    fo.compute_covariance = false;
+    fo.evaluate_splits = false;
+    est::FitSession session(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
+    const int n_nominal = NumFree(problem.built.parameters);
+    const Eigen::VectorXd& w_nom = nominal.solver_result.w;
+    // A point of the restricted problem (new parameters held) in the augmented NLP's layout: the
+    // free parameters first, the candidate's (at their scaled neutral values, as in w0) after the
+    // nominal ones, then the other variables.
+    auto insert_neutral = [&](const est::Nlp& nlp, const Eigen::VectorXd& restricted) {
+      Eigen::VectorXd w;
+      if (restricted.size() == nlp.NumVariables()) return restricted;
+      if (restricted.size() + out.dof == nlp.NumVariables() && restricted.size() >= n_nominal) {
+        w.resize(nlp.NumVariables());
+        w << restricted.head(n_nominal), nlp.w0().segment(n_nominal, out.dof),
+            restricted.tail(restricted.size() - n_nominal);
+      }
+      return w;
+    };
+    Eigen::VectorXd w;
+    if (session.nlp().NumVariables() == w_nom.size() + out.dof) {
+      w = insert_neutral(session.nlp(), w_nom);
+    } else {
+      out.restricted_solve = true;
+      for (const auto& q : candidate.screened) session.FixParameter(q);
+      const est::FitResult restricted = session.Solve();
+      if (!restricted.IsSolutionUsable()) {
+        throw std::runtime_error("restricted solve: " + restricted.solver_result.status + " " +
+                                 restricted.solver_result.message);
+      }
+      for (const auto& q : candidate.screened) session.FreeParameter(q);
+      w = insert_neutral(session.nlp(), restricted.solver_result.w);
+      if (w.size() == 0) {
+        throw std::runtime_error(
+            "the restricted solution has " + std::to_string(restricted.solver_result.w.size()) +
+            " variables; expected " + std::to_string(session.nlp().NumVariables()) + " or " +
+            std::to_string(session.nlp().NumVariables() - out.dof));
+      }
+    }
+    ScoreAt(session.nlp(), w, &out);
+    out.p_value = ChiSquareSurvival(out.score, out.dof);
+  } catch (const std::exception& e) {
+    out.score = kNaN;
+    out.p_value = kNaN;
+    out.failure = e.what();
+  }
+  return out;
+}
+
+// The validation metric of the header, and which role it used.
+double ValidationNrmse(const std::vector<est::SplitEvaluation>& evaluations,
+                       const std::string& role) {
+  double sum = 0.0;
+  int count = 0;
+  for (const auto& e : evaluations) {
+    const bool use = role == "all" ||
+                     (role == "validation" && e.role == est::SplitRole::kValidation) ||
+                     (role == "test" && e.role == est::SplitRole::kTest);
+    if (!use) continue;
+    if (!e.simulation_ok) return kNaN;
+    sum += e.simulation.overall.nrmse;
+    ++count;
+  }
+  return count > 0 ? sum / count : kNaN;
+}
+
+std::string ValidationRole(const std::vector<est::SplitData>& splits) {
+  bool validation = false, test = false;
+  for (const auto& s : splits) {
+    validation = validation || s.role == est::SplitRole::kValidation;
+    test = test || s.role == est::SplitRole::kTest;
+  }
+  return validation ? "validation" : test ? "test" : "all";
+}
+
+void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
+  const double n = fit.num_residuals;
+  const double rss = 2.0 * fit.solver_result.cost;
+  int k = 0;
+  for (const auto& p : fit.parameters) k += p.free ? 1 : 0;
+  if (!(n > 0.0) || !(rss > 0.0)) {
+    *aic = *bic = kNaN;
+    return;
+  }
+  const double fit_term = n * std::log(rss / n);
+  *aic = fit_term + 2.0 * k;
+  *bic = fit_term + k * std::log(n);
+}
+
+RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                  const est::FitResult& nominal, const CandidateScore& screened,
+                  const std::string& role, double before) {
+  const Candidate& c = screened.candidate;
+  RefitResult out;
+  out.effect = c.effect;
+  out.detail = c.detail;
+  out.attachment = c.attachment;
+  out.score = screened.score;
+  out.validation_nrmse_before = before;
+  out.validation_nrmse_after = kNaN;
+  out.gap_closed_fraction = kNaN;
+  out.aic = out.bic = kNaN;
+  try {
+    const est::Problem aug = Augmented(problem, nominal, c, true);
+    out.fit = est::Fit(aug, AugmentedSplits(splits, aug.built.NumStates()));
+    for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
+    for (const auto& q : c.refit) out.at_bound = out.at_bound || out.fit.Parameter(q).at_bound;
+    InformationCriteria(out.fit, &out.aic, &out.bic);
+    out.validation_nrmse_after = ValidationNrmse(out.fit.evaluations, role);
+    if (!out.fit.IsSolutionUsable()) {
+      out.failure = "solver: " + out.fit.solver_result.status + " " + out.fit.solver_result.message;
+    } else if (!std::isfinite(out.validation_nrmse_after)) {
+      out.failure = "the validation simulation did not finish";
+    } else {
+      out.ok = true;
+      out.gap_closed_fraction = (before - out.validation_nrmse_after) / before;
+    }
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+  }
+  return out;
+}
+
+// Regularised lower incomplete gamma P(a, x) by its series (x < a + 1) and upper Q(a, x) by the
+// Lentz continued fraction (otherwise); Numerical Recipes 6.2.
+double GammaQ(double a, double x) {
+  constexpr int kMaxIterations = 1000;
+  constexpr double kEpsilon = 1e-15;
+  const double log_prefactor = -x + a * std::log(x) - std::lgamma(a);
+  if (x < a + 1.0) {
+    double term = 1.0 / a, sum = term;
+    for (int n = 1; n < kMaxIterations; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (std::fabs(term) < std::fabs(sum) * kEpsilon) break;
+    }
+    return std::max(0.0, 1.0 - sum * std::exp(log_prefactor));
+  }
+  constexpr double kTiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < kMaxIterations; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::fabs(c) < kTiny) c = kTiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::fabs(delta - 1.0) < kEpsilon) break;
+  }
+  return std::exp(log_prefactor) * h;
+}
+
+}  // namespace
+
+double ChiSquareSurvival(double x, int dof) {
+  if (dof < 1) {
+    throw std::invalid_argument("ChiSquareSurvival: expected dof >= 1, got " + std::to_string(dof));
+  }
+  if (!(x > 0.0)) return std::isnan(x) ? kNaN : 1.0;
+  return GammaQ(0.5 * dof, 0.5 * x);
+}
+
+void ScreeningOptions::Validate() const {
+  if (refit_top < 0) {
+    throw std::invalid_argument("ScreeningOptions.refit_top: expected >= 0, got " +
+                                std::to_string(refit_top));
+  }
+  if (!(tie_tolerance >= 0.0)) {
+    throw std::invalid_argument("ScreeningOptions.tie_tolerance: expected >= 0, got " +
+                                std::to_string(tie_tolerance));
+  }
+  candidates.Validate();
+}
+
+Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                         const est::FitResult& nominal, const ScreeningOptions& options) {
+  options.Validate();
+  if (nominal.values.size() != problem.built.NumParameters()) {
+    throw std::invalid_argument(
+        "ScreenAndRefit: nominal has " + std::to_string(nominal.values.size()) +
+        " parameter values; expected " + std::to_string(problem.built.NumParameters()) +
+        " (the problem's model)");
+  }
+  Diagnosis d;
+  d.validation_role = ValidationRole(splits);
+  d.nominal_validation_nrmse = ValidationNrmse(nominal.evaluations, d.validation_role);
+  InformationCriteria(nominal, &d.nominal_aic, &d.nominal_bic);
+  const std::vector<Candidate> candidates = EnumerateCandidates(problem, options.candidates);
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    if (options.progress) {
+      options.progress("screening " + candidates[i].Name() + " (" + std::to_string(i + 1) + "/" +
+                       std::to_string(candidates.size()) + ")");
+    }
+    d.screened.push_back(Score(problem, splits, nominal, candidates[i]));
+  }
+  std::stable_sort(d.screened.begin(), d.screened.end(),
+                   [](const CandidateScore& a, const CandidateScore& b) {
+                     const bool fa = std::isfinite(a.score), fb = std::isfinite(b.score);
+                     if (fa != fb) return fa;
+                     return fa && a.score > b.score;
+                   });
+  int refitted = 0;
+  for (const CandidateScore& s : d.screened) {
+    if (refitted >= options.refit_top || !std::isfinite(s.score)) break;
+    if (options.progress) {
+      options.progress("re-fitting " + s.candidate.Name() + " (" + std::to_string(refitted + 1) +
+                       "/" + std::to_string(options.refit_top) + ")");
+    }
+    d.refits.push_back(
+        Refit(problem, splits, nominal, s, d.validation_role, d.nominal_validation_nrmse));
+    ++refitted;
+  }
+  auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
+  const double tie = options.tie_tolerance;
+  std::stable_sort(d.refits.begin(), d.refits.end(),
+                   [&](const RefitResult& a, const RefitResult& b) {
+                     if (group(a) != group(b)) return group(a) < group(b);
+                     if (group(a) == 2) return false;
+                     const double ea = a.validation_nrmse_after, eb = b.validation_nrmse_after;
+                     if (std::fabs(ea - eb) <= tie * std::max(ea, eb)) return a.bic < b.bic;
+                     return ea < eb;
+                   });
+  return d;
+}
+
+std::string Diagnosis::BriefReport() const {
+  std::ostringstream o;
+  if (!refits.empty() && refits.front().ok && !refits.front().at_bound) {
+    const RefitResult& r = refits.front();
+    o << "best: " << r.effect << " (" << r.detail << ") on " << r.attachment << ", "
+      << validation_role << " NRMSE " << Format("%.4g", r.validation_nrmse_before) << " -> "
+      << Format("%.4g", r.validation_nrmse_after) << " ("
+      << Format("%.0f", 100.0 * r.gap_closed_fraction) << " % of it)";
+  } else {
+    o << "no successful re-fit";
+  }
+  o << "; screened " << screened.size() << ", re-fitted " << refits.size();
+  return o.str();
+}
+
+std::string Diagnosis::FullReport() const {
+  std::ostringstream o;
+  o << BriefReport() << "\n";
+  o << "nominal: " << validation_role << " NRMSE " << Format("%.4g", nominal_validation_nrmse)
+    << ", AIC " << Format("%.1f", nominal_aic) << ", BIC " << Format("%.1f", nominal_bic) << "\n";
+  o << "screening (score test at the neutral value):\n";
+  char line[512];
+  std::snprintf(line, sizeof(line), "  %-20s %-24s %-36s %12s %4s %10s\n", "effect", "detail",
+                "attachment", "LM", "dof", "p");
+  o << line;
+  for (const CandidateScore& s : screened) {
+    std::snprintf(line, sizeof(line), "  %-20s %-24s %-36s %12.4g %4d %10.3g%s\n",
+                  s.candidate.effect.c_str(), s.candidate.detail.c_str(),
+                  s.candidate.attachment.c_str(), s.score, s.dof, s.p_value,
+                  s.restricted_solve ? "  (restricted solve)" : "");
+    o << line;
+    if (!s.failure.empty()) o << "    failed: " << s.failure << "\n";
+  }
+  o << "re-fits (ranked):\n";
+  std::snprintf(line, sizeof(line), "  %-20s %-24s %10s %10s %8s %12s %12s  %s\n", "effect",
+                "detail", "NRMSE", "after", "closed", "AIC", "BIC", "status");
+  o << line;
+  for (const RefitResult& r : refits) {
+    const std::string status = !r.ok ? "FAILED: " + r.failure : r.at_bound ? "at bound" : "ok";
+    std::snprintf(line, sizeof(line), "  %-20s %-24s %10.4g %10.4g %7.1f%% %12.1f %12.1f  %s\n",
+                  r.effect.c_str(), r.detail.c_str(), r.validation_nrmse_before,
+                  r.validation_nrmse_after, 100.0 * r.gap_closed_fraction, r.aic, r.bic,
+                  status.c_str());
+    o << line;
+    for (const auto& p : r.parameters) {
+      std::snprintf(line, sizeof(line), "      %-32s %12.5g +- %-10.3g %s%s\n", p.name.c_str(),
+                    p.value, p.std_error, p.unit.c_str(),
+                    p.at_bound ? "  AT BOUND" : (p.free ? "" : "  (held)"));
+      o << line;
+    }
+  }
+  return o.str();
+}
+
+}  // namespace graybox::diagnosis

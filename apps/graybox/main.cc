@@ -4,6 +4,8 @@
 //   graybox fit PROBLEM --out DIR [--from RESULT] [--verbose] [--check-derivatives]
 //   graybox simulate PROBLEM --params FILE --out DIR [--check-derivatives]
 //   graybox check PROBLEM [--check-derivatives]
+//   graybox diagnose PROBLEM --out DIR [--max-effects N] [--refit-top N] [--threads N]
+//                    [--effects a,b,...]
 //
 // Exit codes: 0 success, 1 internal error, 2 bad input (nothing written), 3 solver failure
 // (result.json written, its status says why). See docs/problem-format.md.
@@ -22,8 +24,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag(
       "--version", std::string(graybox::app::Version()) + " (" + graybox::app::GitRevision() + ")");
-  CommandOptions fit, simulate, check;
-  for (CommandOptions* o : {&fit, &simulate, &check}) o->command_line = command_line;
+  CommandOptions fit, simulate, check, diagnose;
+  for (CommandOptions* o : {&fit, &simulate, &check, &diagnose}) o->command_line = command_line;
 
   CLI::App* fit_cmd = app.add_subcommand("fit", "identify the parameters of a problem file");
   fit_cmd->add_option("problem", fit.problem, "problem file (TOML)")->required();
@@ -58,6 +60,30 @@ int main(int argc, char** argv) {
   check_cmd->add_flag("--check-derivatives", check.check_derivatives,
                       "check the model's derivatives by finite differences");
 
+  CLI::App* diagnose_cmd = app.add_subcommand(
+      "diagnose",
+      "find where the model's simulation error lies, which unmodelled effect causes it and how "
+      "far it shrinks once the effect is added");
+  diagnose_cmd->add_option("problem", diagnose.problem, "problem file (TOML)")->required();
+  diagnose_cmd->add_option("--out,-o", diagnose.out, "output directory (diagnosis.json)")
+      ->required();
+  diagnose_cmd
+      ->add_option("--max-effects", diagnose.max_effects,
+                   "most effects forward selection accepts (default 3)")
+      ->check(CLI::NonNegativeNumber);
+  diagnose_cmd
+      ->add_option("--refit-top", diagnose.refit_top,
+                   "candidates re-fitted per round, best by score first (default 3)")
+      ->check(CLI::NonNegativeNumber);
+  diagnose_cmd
+      ->add_option("--threads", diagnose.threads,
+                   "threads for screening and re-fits (default 0: one per hardware thread)")
+      ->check(CLI::NonNegativeNumber);
+  diagnose_cmd
+      ->add_option("--effects", diagnose.effects,
+                   "candidate effects to propose, comma-separated (default: every effect)")
+      ->delimiter(',');
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -66,5 +92,6 @@ int main(int argc, char** argv) {
   }
   if (fit_cmd->parsed()) return graybox::app::RunFit(fit);
   if (sim_cmd->parsed()) return graybox::app::RunSimulate(simulate);
+  if (diagnose_cmd->parsed()) return graybox::app::RunDiagnose(diagnose);
   return graybox::app::RunCheck(check);
 }

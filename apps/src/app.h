@@ -34,10 +34,17 @@ struct CommandOptions {
   bool verbose = false;  // solver iteration lines
   bool check_derivatives = false;
   std::string command_line;  // recorded in result.json
+  // diagnose only.
+  int max_effects = 3;
+  int refit_top = 3;
+  int threads = 0;
+  std::vector<std::string> effects;  // candidate effects to propose; empty: all
 };
 
 int RunFit(const CommandOptions& options);
 int RunSimulate(const CommandOptions& options);
+/// The gap analysis (diagnosis::Diagnose): writes DIR/diagnosis.json.
+int RunDiagnose(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.
 int RunCheck(const CommandOptions& options);
 

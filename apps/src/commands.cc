@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "app.h"
+#include "graybox/diagnosis/diagnose.h"
+#include "graybox/diagnosis/report_json.h"
 #include "report.h"
 
 namespace graybox::app {
@@ -197,6 +199,42 @@ int RunSimulate(const CommandOptions& o) {
     Finish(o.out, "simulation.json", &report, total);
     if (report.exit_code != kExitSuccess) std::cerr << "graybox: " << report.message << "\n";
     return report.exit_code;
+  });
+}
+
+int RunDiagnose(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const Timer total;
+    const Problem problem = estimators::LoadProblem(o.problem);
+    Progress("graybox diagnose: problem '" + problem.name + "' (" + o.problem + ")");
+    CheckOutputDirectory(o.out);
+    diagnosis::DiagnoseOptions options;
+    options.max_effects = o.max_effects;
+    options.screening.refit_top = o.refit_top;
+    options.screening.num_threads = o.threads;
+    options.screening.candidates.effects = o.effects;
+    options.Validate();
+    const std::vector<SplitData> splits = estimators::LoadData(problem);
+    PrintProblem(problem, splits);
+    options.progress = [&total](const std::string& line) {
+      char stamp[32];
+      std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
+      Progress(std::string("  ") + stamp + line);
+    };
+    const diagnosis::DiagnosisReport d = diagnosis::Diagnose(problem, splits, options);
+    std::cout << d.FullReport();
+    namespace fs = std::filesystem;
+    fs::create_directories(o.out);
+    const std::string json =
+        diagnosis::DiagnosisJson(d, {{"command_line", o.command_line},
+                                     {"revision", GitRevision()},
+                                     {"version", Version()},
+                                     {"seed", std::to_string(problem.estimation.seed)}});
+    WriteFileAtomically((fs::path(o.out) / "diagnosis.json").string(), json);
+    Progress("verdict: " + d.verdict);
+    Progress("  wrote " + (fs::path(o.out) / "diagnosis.json").string() + " (" +
+             Sci(total.Seconds()) + " s)");
+    return kExitSuccess;
   });
 }
 

@@ -1,13 +1,16 @@
 #include "graybox/diagnosis/screening.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -34,44 +37,6 @@ std::string Format(const char* fmt, double v) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), fmt, v);
   return buf;
-}
-
-// The augmented problem of the file comment: nominal values, candidate at neutral; for a re-fit
-// the candidate's refit parameters are free.
-est::Problem Augmented(const est::Problem& problem, const est::FitResult& nominal,
-                       const Candidate& candidate, bool refit) {
-  models::Model m = problem.model;
-  for (int i = 0; i < problem.built.NumParameters(); ++i) {
-    m.Parameter(problem.built.parameters[i].name).value = nominal.values[i];
-  }
-  candidate.apply(&m);
-  if (refit) {
-    for (const auto& q : candidate.refit) m.Free(q);
-  }
-  est::Problem aug = problem;
-  aug.model = m;
-  aug.built = m.Build();
-  return aug;
-}
-
-// The splits with the initial state (and a state guess, when given) extended by zeros for the
-// states the candidate adds (appended after the model's own).
-std::vector<est::SplitData> AugmentedSplits(const std::vector<est::SplitData>& splits,
-                                            int num_states) {
-  std::vector<est::SplitData> out = splits;
-  for (est::SplitData& s : out) {
-    const Eigen::Index old = s.setup.x0.size();
-    if (old >= num_states) continue;
-    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(num_states);
-    x0.head(old) = s.setup.x0;
-    s.setup.x0 = x0;
-    if (s.setup.state_guess.size() > 0) {
-      Eigen::MatrixXd guess = Eigen::MatrixXd::Zero(s.setup.state_guess.rows(), num_states);
-      guess.leftCols(s.setup.state_guess.cols()) = s.setup.state_guess;
-      s.setup.state_guess = guess;
-    }
-  }
-  return out;
 }
 
 int NumFree(const std::vector<models::ModelParameter>& parameters) {
@@ -203,7 +168,7 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
   out.dof = static_cast<int>(candidate.screened.size());
   try {
     if (out.dof == 0) throw std::runtime_error("no parameter with a neutral value to test");
-    const est::Problem aug = Augmented(problem, nominal, candidate, false);
+    const est::Problem aug = AugmentedProblem(problem, nominal, candidate, false);
     est::FitOptions fo;
     fo.compute_covariance = false;
     fo.evaluate_splits = false;
@@ -298,16 +263,17 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
                   const std::string& role, double before) {
   const Candidate& c = screened.candidate;
   RefitResult out;
+  out.candidate = c;
   out.effect = c.effect;
   out.detail = c.detail;
   out.attachment = c.attachment;
   out.score = screened.score;
   out.validation_nrmse_before = before;
   out.validation_nrmse_after = kNaN;
-  out.gap_closed_fraction = kNaN;
+  out.relative_gain = kNaN;
   out.aic = out.bic = kNaN;
   try {
-    const est::Problem aug = Augmented(problem, nominal, c, true);
+    const est::Problem aug = AugmentedProblem(problem, nominal, c, true);
     out.fit = est::Fit(aug, AugmentedSplits(splits, aug.built.NumStates()));
     for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
     for (const auto& q : c.refit) out.at_bound = out.at_bound || out.fit.Parameter(q).at_bound;
@@ -319,7 +285,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       out.failure = "the validation simulation did not finish";
     } else {
       out.ok = true;
-      out.gap_closed_fraction = (before - out.validation_nrmse_after) / before;
+      out.relative_gain = (before - out.validation_nrmse_after) / before;
     }
   } catch (const std::exception& e) {
     out.failure = e.what();
@@ -359,7 +325,77 @@ double GammaQ(double a, double x) {
   return std::exp(log_prefactor) * h;
 }
 
+// Runs fn(i) for i = 0 .. n-1 on `threads` threads (0: one per hardware thread), each index once.
+// An exception escaping fn is rethrown on the calling thread after every worker has stopped.
+template <typename Fn>
+void ParallelFor(int n, int threads, Fn&& fn) {
+  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = std::max(1, std::min(threads, n));
+  if (threads <= 1) {
+    for (int i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&] {
+      for (int i = next++; i < n; i = next++) {
+        try {
+          fn(i);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(error_mutex);
+          if (!error) error = std::current_exception();
+        }
+      }
+    });
+  }
+  for (std::thread& w : workers) w.join();
+  if (error) std::rethrow_exception(error);
+}
+
 }  // namespace
+
+est::Problem AugmentedProblem(const est::Problem& problem, const est::FitResult& start,
+                              const Candidate& candidate, bool refit) {
+  if (start.values.size() != problem.built.NumParameters()) {
+    throw std::invalid_argument(
+        "AugmentedProblem: the start has " + std::to_string(start.values.size()) +
+        " parameter values; expected " + std::to_string(problem.built.NumParameters()) +
+        " (the problem's model)");
+  }
+  models::Model m = problem.model;
+  for (int i = 0; i < problem.built.NumParameters(); ++i) {
+    m.Parameter(problem.built.parameters[i].name).value = start.values[i];
+  }
+  candidate.apply(&m);
+  if (refit) {
+    for (const auto& q : candidate.refit) m.Free(q);
+  }
+  est::Problem aug = problem;
+  aug.model = m;
+  aug.built = m.Build();
+  return aug;
+}
+
+std::vector<est::SplitData> AugmentedSplits(const std::vector<est::SplitData>& splits,
+                                            int num_states) {
+  std::vector<est::SplitData> out = splits;
+  for (est::SplitData& s : out) {
+    const Eigen::Index old = s.setup.x0.size();
+    if (old >= num_states) continue;
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(num_states);
+    x0.head(old) = s.setup.x0;
+    s.setup.x0 = x0;
+    if (s.setup.state_guess.size() > 0) {
+      Eigen::MatrixXd guess = Eigen::MatrixXd::Zero(s.setup.state_guess.rows(), num_states);
+      guess.leftCols(s.setup.state_guess.cols()) = s.setup.state_guess;
+      s.setup.state_guess = guess;
+    }
+  }
+  return out;
+}
 
 double ChiSquareSurvival(double x, int dof) {
   if (dof < 1) {
@@ -373,6 +409,10 @@ void ScreeningOptions::Validate() const {
   if (refit_top < 0) {
     throw std::invalid_argument("ScreeningOptions.refit_top: expected >= 0, got " +
                                 std::to_string(refit_top));
+  }
+  if (num_threads < 0) {
+    throw std::invalid_argument("ScreeningOptions.num_threads: expected >= 0, got " +
+                                std::to_string(num_threads));
   }
   if (!(tie_tolerance >= 0.0)) {
     throw std::invalid_argument("ScreeningOptions.tie_tolerance: expected >= 0, got " +
@@ -395,30 +435,36 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   d.nominal_validation_nrmse = ValidationNrmse(nominal.evaluations, d.validation_role);
   InformationCriteria(nominal, &d.nominal_aic, &d.nominal_bic);
   const std::vector<Candidate> candidates = EnumerateCandidates(problem, options.candidates);
-  for (std::size_t i = 0; i < candidates.size(); ++i) {
-    if (options.progress) {
-      options.progress("screening " + candidates[i].Name() + " (" + std::to_string(i + 1) + "/" +
-                       std::to_string(candidates.size()) + ")");
-    }
-    d.screened.push_back(Score(problem, splits, nominal, candidates[i]));
-  }
+  std::mutex progress_mutex;
+  auto report = [&](const std::string& line) {
+    if (!options.progress) return;
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    options.progress(line);
+  };
+  d.screened.resize(candidates.size());
+  ParallelFor(static_cast<int>(candidates.size()), options.num_threads, [&](int i) {
+    report("screening " + candidates[i].Name() + " (" + std::to_string(i + 1) + "/" +
+           std::to_string(candidates.size()) + ")");
+    d.screened[i] = Score(problem, splits, nominal, candidates[i]);
+  });
   std::stable_sort(d.screened.begin(), d.screened.end(),
                    [](const CandidateScore& a, const CandidateScore& b) {
                      const bool fa = std::isfinite(a.score), fb = std::isfinite(b.score);
                      if (fa != fb) return fa;
                      return fa && a.score > b.score;
                    });
-  int refitted = 0;
+  std::vector<const CandidateScore*> to_refit;
   for (const CandidateScore& s : d.screened) {
-    if (refitted >= options.refit_top || !std::isfinite(s.score)) break;
-    if (options.progress) {
-      options.progress("re-fitting " + s.candidate.Name() + " (" + std::to_string(refitted + 1) +
-                       "/" + std::to_string(options.refit_top) + ")");
-    }
-    d.refits.push_back(
-        Refit(problem, splits, nominal, s, d.validation_role, d.nominal_validation_nrmse));
-    ++refitted;
+    if (static_cast<int>(to_refit.size()) >= options.refit_top || !std::isfinite(s.score)) break;
+    to_refit.push_back(&s);
   }
+  d.refits.resize(to_refit.size());
+  ParallelFor(static_cast<int>(to_refit.size()), options.num_threads, [&](int i) {
+    report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +
+           std::to_string(to_refit.size()) + ")");
+    d.refits[i] = Refit(problem, splits, nominal, *to_refit[i], d.validation_role,
+                        d.nominal_validation_nrmse);
+  });
   auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
   const double tie = options.tie_tolerance;
   std::stable_sort(d.refits.begin(), d.refits.end(),
@@ -438,8 +484,8 @@ std::string Diagnosis::BriefReport() const {
     const RefitResult& r = refits.front();
     o << "best: " << r.effect << " (" << r.detail << ") on " << r.attachment << ", "
       << validation_role << " NRMSE " << Format("%.4g", r.validation_nrmse_before) << " -> "
-      << Format("%.4g", r.validation_nrmse_after) << " ("
-      << Format("%.0f", 100.0 * r.gap_closed_fraction) << " % of it)";
+      << Format("%.4g", r.validation_nrmse_after) << " (" << Format("%.0f", 100.0 * r.relative_gain)
+      << " % of it)";
   } else {
     o << "no successful re-fit";
   }
@@ -473,8 +519,7 @@ std::string Diagnosis::FullReport() const {
     const std::string status = !r.ok ? "FAILED: " + r.failure : r.at_bound ? "at bound" : "ok";
     std::snprintf(line, sizeof(line), "  %-20s %-24s %10.4g %10.4g %7.1f%% %12.1f %12.1f  %s\n",
                   r.effect.c_str(), r.detail.c_str(), r.validation_nrmse_before,
-                  r.validation_nrmse_after, 100.0 * r.gap_closed_fraction, r.aic, r.bic,
-                  status.c_str());
+                  r.validation_nrmse_after, 100.0 * r.relative_gain, r.aic, r.bic, status.c_str());
     o << line;
     for (const auto& p : r.parameters) {
       std::snprintf(line, sizeof(line), "      %-32s %12.5g +- %-10.3g %s%s\n", p.name.c_str(),

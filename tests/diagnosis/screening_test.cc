@@ -216,7 +216,7 @@ TEST(ScreenAndRefit, WithheldStribeckFrictionIsNamedAndShrinksTheGap) {
   // differ, so not all of it; the noise floor is kNoiseStd / std(v) ~ 0.03).
   constexpr double kMinGapClosed = 0.5;
   EXPECT_LT(best.validation_nrmse_after, best.validation_nrmse_before);
-  EXPECT_GT(best.gap_closed_fraction, kMinGapClosed);
+  EXPECT_GT(best.relative_gain, kMinGapClosed);
   EXPECT_LT(best.bic, d.nominal_bic);
   for (const RefitResult& r : d.refits) {
     if (!r.ok) {

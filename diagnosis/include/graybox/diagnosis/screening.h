@@ -62,9 +62,9 @@
 //
 // Validation metric: the mean over the splits of role validation of the overall simulation NRMSE
 // (FitResult::evaluations, metrics.h); the test splits when there is no validation split; every
-// split when there is neither (Diagnosis::validation_role says which). gap_closed_fraction =
-// (before - after) / before: the share of the nominal validation NRMSE the effect removes (no
-// flexible reference error is subtracted yet).
+// split when there is neither (Diagnosis::validation_role says which). relative_gain =
+// (before - after) / before: the share of the validation NRMSE of the model screened (`nominal`)
+// the effect removes. Diagnose (diagnose.h) measures accepted effects against the first model's.
 //
 // Information criteria from the estimation residuals: with N = FitResult::num_residuals,
 // RSS = 2 * SolverResult::cost (the least-squares cost 1/2 |r|^2 of the method) and k the number of
@@ -93,7 +93,13 @@ struct ScreeningOptions {
   CandidateOptions candidates;
   /// Relative difference of two validation NRMSEs below which BIC decides the order (>= 0).
   double tie_tolerance = 1e-3;
-  /// Progress lines ("screening coulomb (1/7)"); none when empty.
+  /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
+  /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt solves are
+  /// serialised by the estimators' process-wide lock, everything else (formulation, derivatives,
+  /// covariance, simulation of the splits) overlaps. The results do not depend on it.
+  int num_threads = 0;
+  /// Progress lines ("screening coulomb (1/7)"); none when empty. Called from the worker
+  /// threads, one call at a time.
   std::function<void(const std::string&)> progress;
   /// Throws std::invalid_argument naming the first invalid field and its value.
   void Validate() const;
@@ -113,11 +119,13 @@ struct CandidateScore {
 /// The re-fit of one candidate.
 struct RefitResult {
   std::string effect, detail, attachment;
+  /// The candidate re-fitted (AugmentedProblem(problem, fit, candidate, true) rebuilds its model).
+  Candidate candidate;
   bool ok = false;
   bool at_bound = false;
   std::string failure;  // why not ok
   double validation_nrmse_before = 0.0, validation_nrmse_after = 0.0;
-  double gap_closed_fraction = 0.0;  // (before - after) / before
+  double relative_gain = 0.0;  // (before - after) / before
   double aic = 0.0, bic = 0.0;
   double score = 0.0;  // its screening LM
   /// The candidate's parameters after the re-fit (values, standard errors, intervals, bounds).
@@ -149,6 +157,19 @@ Diagnosis ScreenAndRefit(const estimators::Problem& problem,
                          const std::vector<estimators::SplitData>& splits,
                          const estimators::FitResult& nominal,
                          const ScreeningOptions& options = {});
+
+/// The augmented problem of the file comment: problem.model with every parameter at its value in
+/// `start` (values in the problem's parameter order), plus the candidate's block at its neutral
+/// value; with `refit`, Candidate::refit is free. std::invalid_argument when `start` has the
+/// wrong number of values.
+estimators::Problem AugmentedProblem(const estimators::Problem& problem,
+                                     const estimators::FitResult& start, const Candidate& candidate,
+                                     bool refit);
+
+/// `splits` with each initial state (and state guess, when given) extended by zeros to
+/// `num_states` (the states a candidate adds are appended after the model's own).
+std::vector<estimators::SplitData> AugmentedSplits(const std::vector<estimators::SplitData>& splits,
+                                                   int num_states);
 
 /// The chi-square survival function P(X > x), X ~ chi^2(dof): Q(dof/2, x/2). 1 for x <= 0;
 /// std::invalid_argument for dof < 1.

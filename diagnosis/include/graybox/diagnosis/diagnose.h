@@ -1,0 +1,161 @@
+// Diagnose: the whole gap analysis of a problem in one call — where the sim-to-real gap lies,
+// which unmodelled effects close it (greedy forward selection over the candidate library), how far
+// the error shrinks with each, and what remains unexplained.
+//
+//   const estimators::Problem problem = estimators::LoadProblem("problems/emps/....toml");
+//   const DiagnosisReport d = Diagnose(problem, estimators::LoadData(problem));
+//   std::cout << d.verdict << "\n" << d.FullReport();
+//   for (const AcceptedEffect& a : d.accepted) ...   // in the order they were added
+//   WriteFileAtomically(dir + "/diagnosis.json", DiagnosisJson(d));   // report_json.h
+//
+// ---- Steps
+// ---------------------------------------------------------------------------------------
+// 1. Nominal fit: estimators::Fit(problem, splits, options.fit) on the estimation splits.
+// 2. Localisation of the nominal gap: Localize (localization.h) on the validation splits (test,
+//    else every split; Localization::splits says which).
+// 3. Forward selection, round r = 1 .. max_effects, starting from the nominal model M_0:
+//    ScreenAndRefit(M_{r-1}) (screening.h: every candidate of EnumerateCandidates(M_{r-1}) scored
+//    by the efficient score test at its neutral value, the refit_top best re-fitted warm-started
+//    and ranked). The first ranked re-fit is ACCEPTED when all of
+//      (a) it is ok (solver usable, finite validation simulation) and no re-fitted parameter ended
+//          at a bound;
+//      (b) the likelihood-ratio test on the estimation residuals rejects "no effect":
+//            LR = N ln(RSS_{r-1} / RSS_r),   p = Q_chi2(LR; k),   p < significance,
+//          N = number of residuals, RSS = 2 x the method's least-squares cost, k = the number of
+//          free parameters the effect adds (Gaussian noise of unknown variance; the statistic is
+//          the deviance difference of the two nested fits);
+//      (c) the validation NRMSE falls by at least min_relative_gain of its value before the step:
+//            (e_{r-1} - e_r) / e_{r-1} >= min_relative_gain,
+//          so that an effect must help on data it was not fitted to, by a margin that matters.
+//    An accepted effect's re-fitted model becomes M_r (its parameters free as in the re-fit, the
+//    others of the effect held), and the next round screens M_r. The selection stops at the
+//    first round whose best re-fit is not accepted (its reason is kept in
+//    DiagnosisReport::stop_reason), or after max_effects accepted effects.
+// 4. The remainder: Localize on the final model's validation simulation. It is reported as
+//    unexplained; nothing is absorbed into a free parameter or a network.
+//
+// ---- Metrics (one name, one meaning) ----------------------------------------------------------
+//   validation NRMSE  the mean over the validation splits (role validation; test when there is
+//                     none; every split when there is neither: DiagnosisReport::validation_role)
+//                     of the mean over the output channels of NRMSE = RMSE / std(measured channel)
+//                     of the free-run simulation from the split's initial state (metrics.h).
+//   shrinkage         e_before - e_after of the validation NRMSE for one accepted effect.
+//   gap_closed        shrinkage / e_nominal: the share of the nominal validation NRMSE an effect
+//                     removes (no flexible reference is subtracted: the noise floor is in the
+//                     denominator, so 100 % is out of reach on noisy data).
+//   remaining_fraction  e_final / e_nominal.
+//
+// ---- Verdict
+// ------------------------------------------------------------------------------------- One
+// sentence, first the place (the channel with the largest residual energy, and the top-ranked
+// regime, window or band entry of that channel), then the cause:
+//   "the gap lies in force, at load.qd reversal (...): 41 % of its residual energy in 3 % of the
+//    samples; coulomb (friction.coulomb on ...) closes 62 % of the validation NRMSE"
+//   "... ; not explained by the candidate library (best: viscous, 0.4 %, not significant)".
+// DiagnosisReport::explained is true when at least one effect was accepted.
+//
+// Threads. Screening and re-fits run on options.screening.num_threads threads (screening.h);
+// Ipopt solves are serialised by the estimators' process-wide lock.
+//
+// Failure behaviour. Invalid options throw std::invalid_argument naming the field
+// (DiagnoseOptions::Validate); a problem or data defect throws from estimators::Fit as a fit does;
+// a nominal fit whose solution is not usable throws std::runtime_error with the solver's status
+// (a gap cannot be diagnosed around a failed fit). Candidate failures are recorded, not thrown.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "graybox/diagnosis/localization.h"
+#include "graybox/diagnosis/screening.h"
+#include "graybox/estimators/fit/fit.h"
+
+namespace graybox::diagnosis {
+
+struct DiagnoseOptions {
+  /// The nominal fit (and, through ScreeningOptions, the re-fits use the problem's settings).
+  estimators::FitOptions fit;
+  LocalizationOptions localization;
+  /// Candidates, how many re-fits per round, threads, tie tolerance.
+  ScreeningOptions screening;
+  /// Most effects forward selection accepts (>= 0; 0: screen and re-fit once, accept nothing).
+  int max_effects = 3;
+  /// Level of the likelihood-ratio test of step 3(b), in (0, 1).
+  double significance = 0.01;
+  /// Smallest relative decrease of the validation NRMSE of step 3(c), in [0, 1).
+  double min_relative_gain = 0.02;
+  /// Progress lines ("round 1: screening coulomb (1/9), 3.2 s"); none when empty. Also passed to
+  /// the screening.
+  std::function<void(const std::string&)> progress;
+  /// Throws std::invalid_argument naming the first invalid field and its value.
+  void Validate() const;
+};
+
+/// One effect accepted by forward selection.
+struct AcceptedEffect {
+  int round = 0;  // 1-based
+  std::string effect, detail, attachment, instance;
+  double validation_nrmse_before = 0.0, validation_nrmse_after = 0.0;
+  double shrinkage = 0.0;   // before - after
+  double gap_closed = 0.0;  // shrinkage / nominal validation NRMSE
+  double lr_statistic = 0.0, lr_p_value = 1.0;
+  int dof = 0;  // free parameters the effect added
+  /// The effect's parameters in the final model (values, standard errors, 95 % intervals of the
+  /// final fit, after every accepted effect).
+  std::vector<estimators::FitParameter> parameters;
+};
+
+/// One round of forward selection: the screening and re-fits on the model of that round, and the
+/// decision on its best re-fit.
+struct SelectionRound {
+  int round = 0;
+  Diagnosis screening;
+  bool accepted = false;
+  /// Why the best re-fit was not accepted ("no successful re-fit", "at a bound", "LR p = 0.3 >=
+  /// 0.01", "validation gain 0.4 % < 2 %"); empty when accepted.
+  std::string reason;
+  double lr_statistic = 0.0, lr_p_value = 1.0;
+  double relative_gain = 0.0;  // (e_before - e_after) / e_before of the best re-fit
+};
+
+struct DiagnosisReport {
+  std::string problem;
+  std::string validation_role;  // "validation", "test" or "all"
+  DiagnoseOptions options;
+
+  estimators::FitResult nominal;
+  Localization nominal_localization;
+  double nominal_validation_nrmse = 0.0;
+
+  std::vector<SelectionRound> rounds;
+  std::vector<AcceptedEffect> accepted;
+  std::string stop_reason;
+
+  /// The final model's fit (the nominal fit when nothing was accepted) and its localisation.
+  estimators::FitResult final_fit;
+  estimators::Problem final_problem;
+  Localization remainder;
+  double final_validation_nrmse = 0.0;
+  double remaining_fraction = 1.0;  // final / nominal validation NRMSE
+
+  bool explained = false;
+  std::string verdict;
+  /// Wall time per phase: "nominal fit", "localisation", "round 1", ..., "remainder".
+  std::vector<std::pair<std::string, double>> seconds;
+
+  /// The verdict and the figures in one line each for the nominal and final validation NRMSE.
+  std::string BriefReport() const;
+  /// The brief report, the nominal localisation, each round's screening and re-fit tables with
+  /// its decision, the accepted effects with their parameters, the remainder's localisation, and
+  /// the timings.
+  std::string FullReport() const;
+};
+
+/// The gap analysis of `problem` on `splits` (see the file comment).
+DiagnosisReport Diagnose(const estimators::Problem& problem,
+                         const std::vector<estimators::SplitData>& splits,
+                         const DiagnoseOptions& options = {});
+
+}  // namespace graybox::diagnosis

@@ -1,0 +1,294 @@
+#include "graybox/diagnosis/diagnose.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace graybox::diagnosis {
+namespace {
+
+namespace est = graybox::estimators;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string Format(const char* fmt, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), fmt, v);
+  return buf;
+}
+
+std::string Percent(double fraction) { return Format("%.2g", 100.0 * fraction) + " %"; }
+
+int NumFree(const est::FitResult& fit) {
+  int k = 0;
+  for (const auto& p : fit.parameters) k += p.free ? 1 : 0;
+  return k;
+}
+
+class Stopwatch {
+ public:
+  double Lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return s;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// The likelihood-ratio test of step 3(b) between two nested least-squares fits.
+void LikelihoodRatio(const est::FitResult& before, const est::FitResult& after, double* lr,
+                     double* p, int* dof) {
+  *dof = NumFree(after) - NumFree(before);
+  const double n = after.num_residuals;
+  const double rss0 = 2.0 * before.solver_result.cost;
+  const double rss1 = 2.0 * after.solver_result.cost;
+  if (!(n > 0.0) || !(rss0 > 0.0) || !(rss1 > 0.0) || *dof < 1) {
+    *lr = kNaN;
+    *p = kNaN;
+    return;
+  }
+  *lr = n * std::log(rss0 / rss1);
+  *p = ChiSquareSurvival(*lr, *dof);
+}
+
+// The place of the gap in words: the channel with the largest residual energy share and that
+// channel's top-ranked entry with a positive score, preferring an operating regime (the most
+// physical statement), then a time window, then a frequency band.
+std::string Place(const Localization& loc) {
+  if (loc.channels.empty()) return "the outputs";
+  const ChannelResidual* worst = &loc.channels.front();
+  for (const ChannelResidual& c : loc.channels) {
+    if (c.energy_share > worst->energy_share) worst = &c;
+  }
+  std::string place = worst->name;
+  for (const char* kind : {"regime", "window", "band"}) {
+    const std::vector<LocalizationEntry> entries = loc.Entries(kind, worst->name);
+    if (entries.empty() || !(entries.front().score > 0.0)) continue;
+    const LocalizationEntry& e = entries.front();
+    place += std::string(", ") +
+             (e.kind == "window" ? "in "
+              : e.kind == "band" ? "in the band "
+                                 : "at ") +
+             e.label + ": " + Percent(e.energy_share) + " of its residual energy in " +
+             Percent(e.sample_share) + " of the " + (e.kind == "band" ? "spectrum" : "samples");
+    break;
+  }
+  return place;
+}
+
+std::string Verdict(const DiagnosisReport& d) {
+  std::string v = "the gap lies in " + Place(d.nominal_localization) + "; ";
+  if (d.accepted.empty()) {
+    v += "not explained by the candidate library";
+    if (!d.stop_reason.empty()) v += " (" + d.stop_reason + ")";
+    return v;
+  }
+  for (std::size_t i = 0; i < d.accepted.size(); ++i) {
+    const AcceptedEffect& a = d.accepted[i];
+    if (i > 0) v += i + 1 == d.accepted.size() ? " and " : ", ";
+    v += a.effect + " (" + a.detail + ") closes " + Percent(a.gap_closed);
+  }
+  v += " of the " + d.validation_role + " NRMSE (" + Format("%.4g", d.nominal_validation_nrmse) +
+       " -> " + Format("%.4g", d.final_validation_nrmse) + ")";
+  return v;
+}
+
+}  // namespace
+
+void DiagnoseOptions::Validate() const {
+  fit.Validate();
+  localization.Validate();
+  screening.Validate();
+  if (max_effects < 0) {
+    throw std::invalid_argument("DiagnoseOptions.max_effects: expected >= 0, got " +
+                                std::to_string(max_effects));
+  }
+  if (!(significance > 0.0 && significance < 1.0)) {
+    throw std::invalid_argument("DiagnoseOptions.significance: expected in (0, 1), got " +
+                                Format("%g", significance));
+  }
+  if (!(min_relative_gain >= 0.0 && min_relative_gain < 1.0)) {
+    throw std::invalid_argument("DiagnoseOptions.min_relative_gain: expected in [0, 1), got " +
+                                Format("%g", min_relative_gain));
+  }
+}
+
+DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                         const DiagnoseOptions& options) {
+  options.Validate();
+  DiagnosisReport d;
+  d.problem = problem.name;
+  d.options = options;
+  Stopwatch clock;
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+
+  progress("nominal fit of " + problem.name);
+  est::FitOptions fit_options = options.fit;
+  d.nominal = est::Fit(problem, splits, fit_options);
+  if (!d.nominal.IsSolutionUsable()) {
+    throw std::runtime_error("Diagnose: the nominal fit of '" + problem.name + "' failed (" +
+                             d.nominal.solver_result.status + ": " +
+                             d.nominal.solver_result.message +
+                             "); a gap cannot be diagnosed around a failed fit");
+  }
+  d.seconds.emplace_back("nominal fit", clock.Lap());
+  d.nominal_localization =
+      Localize(problem.built, d.nominal.values, d.nominal.evaluations, options.localization);
+  d.seconds.emplace_back("localisation", clock.Lap());
+
+  est::Problem current = problem;
+  std::vector<est::SplitData> current_splits = splits;
+  est::FitResult current_fit = d.nominal;
+  ScreeningOptions screening = options.screening;
+  for (int round = 1;; ++round) {
+    screening.progress = [&, round](const std::string& line) {
+      progress("round " + std::to_string(round) + ": " + line);
+    };
+    SelectionRound r;
+    r.round = round;
+    r.screening = ScreenAndRefit(current, current_splits, current_fit, screening);
+    if (round == 1) {
+      d.validation_role = r.screening.validation_role;
+      d.nominal_validation_nrmse = r.screening.nominal_validation_nrmse;
+    }
+    const double before = r.screening.nominal_validation_nrmse;
+    const RefitResult* best = r.screening.refits.empty() ? nullptr : &r.screening.refits.front();
+    if (best == nullptr || !best->ok) {
+      r.reason = best == nullptr ? "no candidate could be re-fitted"
+                                 : "no successful re-fit (" + best->failure + ")";
+    } else {
+      int dof = 0;
+      LikelihoodRatio(current_fit, best->fit, &r.lr_statistic, &r.lr_p_value, &dof);
+      r.relative_gain = (before - best->validation_nrmse_after) / before;
+      const std::string name = best->effect + " (" + best->detail + ")";
+      if (best->at_bound) {
+        r.reason = "best re-fit " + name + " ended at a bound";
+      } else if (!(r.lr_p_value < options.significance)) {
+        r.reason = "best re-fit " + name +
+                   ": likelihood-ratio p = " + Format("%.3g", r.lr_p_value) +
+                   " >= " + Format("%g", options.significance);
+      } else if (!(r.relative_gain >= options.min_relative_gain)) {
+        r.reason = "best re-fit " + name + ": " + d.validation_role + " NRMSE gain " +
+                   Format("%.2f", 100.0 * r.relative_gain) + " % < " +
+                   Format("%g", 100.0 * options.min_relative_gain) + " %";
+      } else if (static_cast<int>(d.accepted.size()) >= options.max_effects) {
+        r.reason = "max_effects = " + std::to_string(options.max_effects) + " reached";
+      } else {
+        r.accepted = true;
+        AcceptedEffect a;
+        a.round = round;
+        a.effect = best->effect;
+        a.detail = best->detail;
+        a.attachment = best->attachment;
+        a.instance = best->candidate.instance;
+        a.validation_nrmse_before = before;
+        a.validation_nrmse_after = best->validation_nrmse_after;
+        a.shrinkage = before - best->validation_nrmse_after;
+        a.gap_closed = a.shrinkage / d.nominal_validation_nrmse;
+        a.lr_statistic = r.lr_statistic;
+        a.lr_p_value = r.lr_p_value;
+        a.dof = dof;
+        a.parameters = best->parameters;
+        d.accepted.push_back(a);
+        current = AugmentedProblem(current, current_fit, best->candidate, true);
+        for (int i = 0; i < current.built.NumParameters(); ++i) {
+          current.model.Parameter(current.built.parameters[i].name).value = best->fit.values[i];
+        }
+        current.built = current.model.Build();
+        current_splits = AugmentedSplits(current_splits, current.built.NumStates());
+        current_fit = best->fit;
+        progress("round " + std::to_string(round) + ": accepted " + name + ", " +
+                 d.validation_role + " NRMSE " + Format("%.4g", before) + " -> " +
+                 Format("%.4g", best->validation_nrmse_after));
+      }
+    }
+    if (!r.accepted) progress("round " + std::to_string(round) + ": stop, " + r.reason);
+    d.seconds.emplace_back("round " + std::to_string(round), clock.Lap());
+    const bool go_on = r.accepted && static_cast<int>(d.accepted.size()) < options.max_effects;
+    if (!r.accepted) d.stop_reason = r.reason;
+    d.rounds.push_back(std::move(r));
+    if (!go_on) break;
+  }
+  if (d.stop_reason.empty()) {
+    d.stop_reason = "max_effects = " + std::to_string(options.max_effects) + " reached";
+  }
+
+  d.final_problem = current;
+  d.final_fit = current_fit;
+  for (AcceptedEffect& a : d.accepted) {
+    for (est::FitParameter& p : a.parameters) p = d.final_fit.Parameter(p.name);
+  }
+  d.final_validation_nrmse =
+      d.accepted.empty() ? d.nominal_validation_nrmse : d.accepted.back().validation_nrmse_after;
+  d.remaining_fraction = d.final_validation_nrmse / d.nominal_validation_nrmse;
+  d.remainder = d.accepted.empty() ? d.nominal_localization
+                                   : Localize(current.built, current_fit.values,
+                                              current_fit.evaluations, options.localization);
+  d.seconds.emplace_back("remainder", clock.Lap());
+  d.explained = !d.accepted.empty();
+  d.verdict = Verdict(d);
+  return d;
+}
+
+std::string DiagnosisReport::BriefReport() const {
+  std::ostringstream o;
+  o << verdict << "\n";
+  o << validation_role << " NRMSE: nominal " << Format("%.4g", nominal_validation_nrmse)
+    << ", final " << Format("%.4g", final_validation_nrmse) << " ("
+    << Format("%.1f", 100.0 * remaining_fraction) << " % remains); " << accepted.size()
+    << " effect(s) accepted in " << rounds.size() << " round(s)";
+  return o.str();
+}
+
+std::string DiagnosisReport::FullReport() const {
+  std::ostringstream o;
+  o << BriefReport() << "\n\n";
+  o << "== nominal fit\n" << nominal.BriefReport() << "\n\n";
+  o << "== where the nominal gap lies\n" << nominal_localization.FullReport() << "\n";
+  for (const SelectionRound& r : rounds) {
+    o << "== round " << r.round << "\n" << r.screening.FullReport();
+    o << (r.accepted ? "accepted" : "not accepted: " + r.reason);
+    if (std::isfinite(r.lr_statistic)) {
+      o << " (LR " << Format("%.4g", r.lr_statistic) << ", p " << Format("%.3g", r.lr_p_value)
+        << ", " << validation_role << " NRMSE gain " << Format("%.2f", 100.0 * r.relative_gain)
+        << " %)";
+    }
+    o << "\n\n";
+  }
+  o << "== accepted effects\n";
+  if (accepted.empty()) o << "  none\n";
+  char line[512];
+  for (const AcceptedEffect& a : accepted) {
+    std::snprintf(line, sizeof(line),
+                  "  %d. %s (%s) on %s: %s NRMSE %.4g -> %.4g, closes %.1f %%, LR %.4g (dof %d, "
+                  "p %.3g)\n",
+                  a.round, a.effect.c_str(), a.detail.c_str(), a.attachment.c_str(),
+                  validation_role.c_str(), a.validation_nrmse_before, a.validation_nrmse_after,
+                  100.0 * a.gap_closed, a.lr_statistic, a.dof, a.lr_p_value);
+    o << line;
+    for (const auto& p : a.parameters) {
+      std::snprintf(line, sizeof(line), "       %-32s %12.5g +- %-10.3g [%.5g, %.5g] %s%s\n",
+                    p.name.c_str(), p.value, p.std_error, p.ci_low, p.ci_high, p.unit.c_str(),
+                    p.free ? "" : "  (held)");
+      o << line;
+    }
+  }
+  o << "stop: " << stop_reason << "\n\n";
+  o << "== unexplained remainder\n" << remainder.FullReport() << "\n";
+  o << "== timings\n";
+  for (const auto& [phase, s] : seconds) o << "  " << phase << ": " << Format("%.2f", s) << " s\n";
+  return o.str();
+}
+
+}  // namespace graybox::diagnosis

@@ -1,0 +1,220 @@
+// Diagnose on a synthetic sliding mass: forward selection finds both effects of a truth with two
+// withheld frictions (a Coulomb level of atan shape, which no candidate block has, and a
+// direction-independent constant force, i.e. an asymmetry), accepts nothing when the truth equals
+// the nominal model, gives the same screening on one thread and on two, and writes a
+// diagnosis.json with the documented keys.
+#include "graybox/diagnosis/diagnose.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "graybox/diagnosis/report_json.h"
+#include "graybox/estimators/fit/fit.h"
+#include "graybox/models/model.h"
+
+namespace graybox::diagnosis {
+namespace {
+
+namespace est = graybox::estimators;
+
+constexpr double kPi = 3.14159265358979323846;
+
+unsigned Seed() {
+  const char* s = std::getenv("GRAYBOX_TEST_SEED");
+  const unsigned seed = s ? static_cast<unsigned>(std::strtoul(s, nullptr, 10)) : 20261126u;
+  std::cout << "seed " << seed << " (GRAYBOX_TEST_SEED overrides)\n";
+  return seed;
+}
+
+// The truth: a 2 kg slide with viscous friction 3 N s/m and, when withheld,
+//   f(v) = fc (2 / pi) atan(v / vd) + f_asym
+// (vd = 1 mm/s; the coulomb candidate is fc tanh(100 v), the asymmetry a constant force).
+constexpr double kMass = 2.0;       // [kg]
+constexpr double kViscous = 3.0;    // [N s/m]
+constexpr double kFc = 1.2;         // [N]
+constexpr double kAsym = 0.5;       // [N]
+constexpr double kVd = 0.001;       // [m/s]
+constexpr double kDt = 0.01;        // [s]
+constexpr int kSamples = 1000;      // per split (10 s)
+constexpr int kSubsteps = 40;       // RK4 steps per sample of the truth
+constexpr double kNoiseStd = 0.01;  // [m/s]
+
+double Force(double t, double phase) {
+  return 2.5 * std::sin(2.0 * kPi * 0.3 * t + phase) +
+         1.5 * std::sin(2.0 * kPi * 0.9 * t + 1.0 + 2.0 * phase) +
+         0.8 * std::sin(2.0 * kPi * 1.7 * t + 2.0 + 3.0 * phase);
+}
+
+est::SplitData TruthSplit(const std::string& name, est::SplitRole role, double phase, bool withheld,
+                          std::mt19937* rng) {
+  est::Experiment e;
+  e.name = name;
+  e.dt = kDt;
+  e.u.resize(kSamples, 1);
+  e.y.resize(kSamples, 1);
+  std::normal_distribution<double> noise(0.0, kNoiseStd);
+  double v = 0.0;
+  const double h = kDt / kSubsteps;
+  auto friction = [&](double vv) {
+    return withheld ? kFc * (2.0 / kPi) * std::atan(vv / kVd) + kAsym : 0.0;
+  };
+  for (int k = 0; k < kSamples; ++k) {
+    const double u = Force(k * kDt, phase);
+    e.u(k, 0) = u;
+    e.y(k, 0) = v + noise(*rng);
+    auto f = [&](double vv) { return (u - kViscous * vv - friction(vv)) / kMass; };
+    for (int s = 0; s < kSubsteps; ++s) {
+      const double k1 = f(v), k2 = f(v + 0.5 * h * k1), k3 = f(v + 0.5 * h * k2),
+                   k4 = f(v + h * k3);
+      v += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+  }
+  return est::MakeSplit(name, role, e, Eigen::VectorXd::Zero(2));
+}
+
+est::Problem NominalProblem() {
+  models::Model m("slide");
+  m.AddInput("force", "N", "drive force", -5.0, 5.0);
+  models::BlockOptions prismatic;
+  prismatic.words["motion"] = "prismatic";
+  m.AddBlock("load", "mechanics.mass", prismatic, {"force"}, {});
+  m.AddBlock("friction", "friction.viscous", prismatic, {"load.qd"}, {"-force"});
+  m.SetParameter("load.mass", 1.0);
+  m.SetParameter("friction.fv", 1.0);
+  m.AddOutput("load.qd");
+  est::EstimationSpec spec;
+  spec.step.substeps = 4;
+  return est::MakeProblem("slide", m, spec);
+}
+
+std::vector<est::SplitData> Splits(bool withheld) {
+  std::mt19937 rng(Seed());
+  return {TruthSplit("estimation", est::SplitRole::kEstimation, 0.0, withheld, &rng),
+          TruthSplit("validation", est::SplitRole::kValidation, 0.7, withheld, &rng)};
+}
+
+// The friction-family candidates and the input delay: the effects this model can carry.
+DiagnoseOptions Options() {
+  DiagnoseOptions o;
+  o.screening.candidates.effects = {"coulomb", "asymmetric_friction", "stribeck",
+                                    "viscous", "power_law_viscous",   "input_delay"};
+  o.screening.refit_top = 2;
+  o.progress = [](const std::string& line) { std::cout << line << "\n"; };
+  return o;
+}
+
+bool IsCoulombLike(const std::string& effect) {
+  return effect == "coulomb" || effect == "stribeck";
+}
+
+TEST(Diagnose, ForwardSelectionFindsBothWithheldFrictions) {
+  const DiagnosisReport d = Diagnose(NominalProblem(), Splits(true), Options());
+  std::cout << d.FullReport();
+  ASSERT_EQ(d.accepted.size(), 2u) << d.BriefReport();
+  const bool coulomb_first = IsCoulombLike(d.accepted[0].effect);
+  const AcceptedEffect& coulomb = coulomb_first ? d.accepted[0] : d.accepted[1];
+  const AcceptedEffect& asym = coulomb_first ? d.accepted[1] : d.accepted[0];
+  EXPECT_TRUE(IsCoulombLike(coulomb.effect)) << d.BriefReport();
+  EXPECT_EQ(asym.effect, "asymmetric_friction") << d.BriefReport();
+  EXPECT_TRUE(d.explained);
+  // Each accepted step must lower the validation NRMSE and be significant.
+  for (const AcceptedEffect& a : d.accepted) {
+    EXPECT_LT(a.validation_nrmse_after, a.validation_nrmse_before);
+    EXPECT_LT(a.lr_p_value, d.options.significance);
+    EXPECT_GE(a.dof, 1);
+  }
+  // Together they remove most of the nominal error: what is left is the velocity noise (the
+  // nominal NRMSE is dominated by the missing friction). The noise alone would leave about
+  // kNoiseStd / std(v) of NRMSE; the named bound leaves room for the shape mismatch.
+  constexpr double kMaxRemainingFraction = 0.5;
+  EXPECT_LT(d.remaining_fraction, kMaxRemainingFraction) << d.BriefReport();
+  // The asymmetry's fitted level is the truth's within its shape mismatch.
+  constexpr double kAsymRelTol = 0.25;
+  ASSERT_FALSE(asym.parameters.empty());
+  EXPECT_NEAR(std::fabs(asym.parameters.front().value), kAsym, kAsymRelTol * kAsym);
+  EXPECT_NE(d.verdict.find("closes"), std::string::npos) << d.verdict;
+  // A third round was screened and refused.
+  ASSERT_EQ(d.rounds.size(), 3u);
+  EXPECT_FALSE(d.rounds.back().accepted);
+  EXPECT_FALSE(d.stop_reason.empty());
+}
+
+TEST(Diagnose, NothingIsAcceptedWhenTheTruthIsTheNominalModel) {
+  const DiagnosisReport d = Diagnose(NominalProblem(), Splits(false), Options());
+  std::cout << d.FullReport();
+  EXPECT_TRUE(d.accepted.empty()) << d.BriefReport();
+  EXPECT_FALSE(d.explained);
+  EXPECT_NE(d.verdict.find("not explained by the candidate library"), std::string::npos)
+      << d.verdict;
+  EXPECT_EQ(d.rounds.size(), 1u);
+  EXPECT_DOUBLE_EQ(d.remaining_fraction, 1.0);
+}
+
+TEST(Diagnose, ScreeningOnTwoThreadsEqualsOneThread) {
+  const est::Problem problem = NominalProblem();
+  const std::vector<est::SplitData> splits = Splits(true);
+  est::FitOptions fo;
+  fo.compute_covariance = false;
+  const est::FitResult nominal = est::Fit(problem, splits, fo);
+  ScreeningOptions one = Options().screening, two = one;
+  one.num_threads = 1;
+  two.num_threads = 2;
+  const Diagnosis a = ScreenAndRefit(problem, splits, nominal, one);
+  const Diagnosis b = ScreenAndRefit(problem, splits, nominal, two);
+  ASSERT_EQ(a.screened.size(), b.screened.size());
+  for (std::size_t i = 0; i < a.screened.size(); ++i) {
+    EXPECT_EQ(a.screened[i].candidate.Name(), b.screened[i].candidate.Name());
+    EXPECT_EQ(a.screened[i].score, b.screened[i].score) << a.screened[i].candidate.Name();
+  }
+  ASSERT_EQ(a.refits.size(), b.refits.size());
+  for (std::size_t i = 0; i < a.refits.size(); ++i) {
+    EXPECT_EQ(a.refits[i].effect, b.refits[i].effect);
+    EXPECT_EQ(a.refits[i].validation_nrmse_after, b.refits[i].validation_nrmse_after);
+  }
+}
+
+TEST(Diagnose, JsonHasTheDocumentedKeys) {
+  DiagnoseOptions o = Options();
+  o.max_effects = 1;
+  const DiagnosisReport d = Diagnose(NominalProblem(), Splits(true), o);
+  const nlohmann::json j = nlohmann::json::parse(DiagnosisJson(d, {{"seed", "7"}}));
+  EXPECT_EQ(j.at("schema").get<int>(), kDiagnosisJsonSchema);
+  EXPECT_EQ(j.at("run").at("seed").get<std::string>(), "7");
+  for (const char* key :
+       {"problem", "options", "metric", "validation_role", "verdict", "explained", "nominal",
+        "localization", "rounds", "accepted", "stop_reason", "remainder", "seconds"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  ASSERT_EQ(j.at("accepted").size(), 1u);
+  const auto& a = j.at("accepted").at(0);
+  EXPECT_EQ(a.at("effect").get<std::string>(), d.accepted[0].effect);
+  EXPECT_FALSE(a.at("attachment").get<std::string>().empty());
+  EXPECT_DOUBLE_EQ(a.at("gap_closed").get<double>(), d.accepted[0].gap_closed);
+  EXPECT_EQ(j.at("rounds").at(0).at("screened").size(), d.rounds[0].screening.screened.size());
+  EXPECT_EQ(j.at("localization").at("entries").size(), d.nominal_localization.entries.size());
+  EXPECT_EQ(j.at("stop_reason").get<std::string>(), "max_effects = 1 reached");
+}
+
+TEST(Diagnose, InvalidOptionsNameTheField) {
+  DiagnoseOptions o;
+  o.significance = 1.5;
+  try {
+    o.Validate();
+    FAIL() << "expected an exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("significance"), std::string::npos) << e.what();
+  }
+  o = DiagnoseOptions();
+  o.screening.num_threads = -1;
+  EXPECT_THROW(o.Validate(), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace graybox::diagnosis

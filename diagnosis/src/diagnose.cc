@@ -92,14 +92,18 @@ std::string Verdict(const DiagnosisReport& d) {
     if (!d.stop_reason.empty()) v += " (" + d.stop_reason + ")";
     return v;
   }
+  const bool gap = std::isfinite(d.gap);
   for (std::size_t i = 0; i < d.accepted.size(); ++i) {
     const AcceptedEffect& a = d.accepted[i];
     if (i > 0) v += i + 1 == d.accepted.size() ? " and " : ", ";
-    v += a.effect + " (" + a.detail + ") closes " + Percent(a.gap_closed);
+    v += a.effect + " (" + a.detail + ") " +
+         (gap ? "closes " + Percent(a.gap_closed) : "removes " + Percent(a.error_share));
   }
-  v += " of the " + d.validation_role + " NRMSE (" + Format("%.4g", d.nominal_validation_nrmse) +
-       " -> " + Format("%.4g", d.final_validation_nrmse) + ")";
-  return v;
+  v += gap ? " of the gap (" : " of the " + d.validation_role + " NRMSE (";
+  v += d.validation_role + " NRMSE " + Format("%.4g", d.nominal_validation_nrmse) + " -> " +
+       Format("%.4g", d.final_validation_nrmse);
+  if (gap) v += ", flexible reference " + Format("%.4g", d.reference.validation_nrmse);
+  return v + ")";
 }
 
 }  // namespace
@@ -108,6 +112,7 @@ void DiagnoseOptions::Validate() const {
   fit.Validate();
   localization.Validate();
   screening.Validate();
+  reference.Validate();
   if (max_effects < 0) {
     throw std::invalid_argument("DiagnoseOptions.max_effects: expected >= 0, got " +
                                 std::to_string(max_effects));
@@ -146,6 +151,16 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   d.nominal_localization =
       Localize(problem.built, d.nominal.values, d.nominal.evaluations, options.localization);
   d.seconds.emplace_back("localisation", clock.Lap());
+  d.gap = kNaN;
+  if (options.fit_reference) {
+    progress("flexible reference: networks on every mechanical axis");
+    d.reference = FitFlexibleReference(problem, splits, d.nominal, options.reference);
+    progress(d.reference.BriefReport());
+    d.seconds.emplace_back("flexible reference", clock.Lap());
+  } else {
+    d.reference.failure = "not fitted (DiagnoseOptions::fit_reference is false)";
+    d.reference.validation_nrmse = kNaN;
+  }
 
   est::Problem current = problem;
   std::vector<est::SplitData> current_splits = splits;
@@ -161,6 +176,9 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
     if (round == 1) {
       d.validation_role = r.screening.validation_role;
       d.nominal_validation_nrmse = r.screening.nominal_validation_nrmse;
+      if (d.reference.ok && d.reference.validation_nrmse < d.nominal_validation_nrmse) {
+        d.gap = d.nominal_validation_nrmse - d.reference.validation_nrmse;
+      }
     }
     const double before = r.screening.nominal_validation_nrmse;
     const RefitResult* best = r.screening.refits.empty() ? nullptr : &r.screening.refits.front();
@@ -195,7 +213,8 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
         a.validation_nrmse_before = before;
         a.validation_nrmse_after = best->validation_nrmse_after;
         a.shrinkage = before - best->validation_nrmse_after;
-        a.gap_closed = a.shrinkage / d.nominal_validation_nrmse;
+        a.error_share = a.shrinkage / d.nominal_validation_nrmse;
+        a.gap_closed = a.shrinkage / d.gap;  // NaN without a gap
         a.lr_statistic = r.lr_statistic;
         a.lr_p_value = r.lr_p_value;
         a.dof = dof;
@@ -254,7 +273,8 @@ std::string DiagnosisReport::BriefReport() const {
 std::string DiagnosisReport::FullReport() const {
   std::ostringstream o;
   o << BriefReport() << "\n\n";
-  o << "== nominal fit\n" << nominal.BriefReport() << "\n\n";
+  o << "== nominal fit\n" << nominal.BriefReport() << "\n";
+  o << reference.BriefReport() << "; gap " << Format("%.4g", gap) << "\n\n";
   o << "== where the nominal gap lies\n" << nominal_localization.FullReport() << "\n";
   for (const SelectionRound& r : rounds) {
     o << "== round " << r.round << "\n" << r.screening.FullReport();
@@ -271,11 +291,11 @@ std::string DiagnosisReport::FullReport() const {
   char line[512];
   for (const AcceptedEffect& a : accepted) {
     std::snprintf(line, sizeof(line),
-                  "  %d. %s (%s) on %s: %s NRMSE %.4g -> %.4g, closes %.1f %%, LR %.4g (dof %d, "
-                  "p %.3g)\n",
+                  "  %d. %s (%s) on %s: %s NRMSE %.4g -> %.4g (%.1f %% of it), closes %.1f %% of "
+                  "the gap, LR %.4g (dof %d, p %.3g)\n",
                   a.round, a.effect.c_str(), a.detail.c_str(), a.attachment.c_str(),
                   validation_role.c_str(), a.validation_nrmse_before, a.validation_nrmse_after,
-                  100.0 * a.gap_closed, a.lr_statistic, a.dof, a.lr_p_value);
+                  100.0 * a.error_share, 100.0 * a.gap_closed, a.lr_statistic, a.dof, a.lr_p_value);
     o << line;
     for (const auto& p : a.parameters) {
       std::snprintf(line, sizeof(line), "       %-32s %12.5g +- %-10.3g [%.5g, %.5g] %s%s\n",

@@ -198,6 +198,13 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   options["num_threads"] = d.options.screening.num_threads;
   options["tie_tolerance"] = d.options.screening.tie_tolerance;
   options["effects"] = d.options.screening.candidates.effects;
+  options["fit_reference"] = d.options.fit_reference;
+  options["reference"] = {{"hidden", d.options.reference.hidden},
+                          {"max_steepness", d.options.reference.max_steepness},
+                          {"train_hidden_layer", d.options.reference.train_hidden_layer},
+                          {"weight_decay", d.options.reference.weight_decay},
+                          {"position_network", d.options.reference.position_network},
+                          {"seed", d.options.reference.seed}};
   const LocalizationOptions& lo = d.options.localization;
   options["localization"] = {{"num_windows", lo.num_windows},
                              {"num_bins", lo.num_bins},
@@ -215,6 +222,14 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   nominal["validation_nrmse"] = d.nominal_validation_nrmse;
   j["nominal"] = nominal;
   j["localization"] = LocalizationJson(d.nominal_localization);
+  Json reference;
+  reference["ok"] = d.reference.ok;
+  reference["failure"] = d.reference.failure;
+  reference["validation_nrmse"] = d.reference.validation_nrmse;
+  reference["networks"] = d.reference.networks;
+  reference["num_network_parameters"] = d.reference.num_network_parameters;
+  reference["gap"] = d.gap;
+  j["reference"] = reference;
   Json rounds = Json::array();
   for (const SelectionRound& r : d.rounds) rounds.push_back(RoundJson(r));
   j["rounds"] = rounds;
@@ -229,6 +244,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
     aj["validation_nrmse_before"] = a.validation_nrmse_before;
     aj["validation_nrmse_after"] = a.validation_nrmse_after;
     aj["shrinkage"] = a.shrinkage;
+    aj["error_share"] = a.error_share;
     aj["gap_closed"] = a.gap_closed;
     aj["lr_statistic"] = a.lr_statistic;
     aj["lr_p_value"] = a.lr_p_value;

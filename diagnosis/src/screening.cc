@@ -218,32 +218,6 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
   return out;
 }
 
-// The validation metric of the header, and which role it used.
-double ValidationNrmse(const std::vector<est::SplitEvaluation>& evaluations,
-                       const std::string& role) {
-  double sum = 0.0;
-  int count = 0;
-  for (const auto& e : evaluations) {
-    const bool use = role == "all" ||
-                     (role == "validation" && e.role == est::SplitRole::kValidation) ||
-                     (role == "test" && e.role == est::SplitRole::kTest);
-    if (!use) continue;
-    if (!e.simulation_ok) return kNaN;
-    sum += e.simulation.overall.nrmse;
-    ++count;
-  }
-  return count > 0 ? sum / count : kNaN;
-}
-
-std::string ValidationRole(const std::vector<est::SplitData>& splits) {
-  bool validation = false, test = false;
-  for (const auto& s : splits) {
-    validation = validation || s.role == est::SplitRole::kValidation;
-    test = test || s.role == est::SplitRole::kTest;
-  }
-  return validation ? "validation" : test ? "test" : "all";
-}
-
 void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
   const double n = fit.num_residuals;
   const double rss = 2.0 * fit.solver_result.cost;
@@ -395,6 +369,31 @@ std::vector<est::SplitData> AugmentedSplits(const std::vector<est::SplitData>& s
     }
   }
   return out;
+}
+
+std::string ValidationRole(const std::vector<est::SplitData>& splits) {
+  bool validation = false, test = false;
+  for (const auto& s : splits) {
+    validation = validation || s.role == est::SplitRole::kValidation;
+    test = test || s.role == est::SplitRole::kTest;
+  }
+  return validation ? "validation" : test ? "test" : "all";
+}
+
+double ValidationNrmse(const std::vector<est::SplitEvaluation>& evaluations,
+                       const std::string& role) {
+  double sum = 0.0;
+  int count = 0;
+  for (const auto& e : evaluations) {
+    const bool use = role == "all" ||
+                     (role == "validation" && e.role == est::SplitRole::kValidation) ||
+                     (role == "test" && e.role == est::SplitRole::kTest);
+    if (!use) continue;
+    if (!e.simulation_ok) return kNaN;
+    sum += e.simulation.overall.nrmse;
+    ++count;
+  }
+  return count > 0 ? sum / count : kNaN;
 }
 
 double ChiSquareSurvival(double x, int dof) {

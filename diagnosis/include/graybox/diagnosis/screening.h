@@ -171,6 +171,16 @@ estimators::Problem AugmentedProblem(const estimators::Problem& problem,
 std::vector<estimators::SplitData> AugmentedSplits(const std::vector<estimators::SplitData>& splits,
                                                    int num_states);
 
+/// Which splits score a model (file comment): "validation" when a split has that role, else
+/// "test" when one has that role, else "all".
+std::string ValidationRole(const std::vector<estimators::SplitData>& splits);
+
+/// The validation metric of the file comment: the mean over the evaluations of role `role`
+/// ("validation", "test", or "all" for every one) of the overall simulation NRMSE; NaN when one
+/// of them diverged or none has the role.
+double ValidationNrmse(const std::vector<estimators::SplitEvaluation>& evaluations,
+                       const std::string& role);
+
 /// The chi-square survival function P(X > x), X ~ chi^2(dof): Q(dof/2, x/2). 1 for x <= 0;
 /// std::invalid_argument for dof < 1.
 double ChiSquareSurvival(double x, int dof);

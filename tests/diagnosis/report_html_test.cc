@@ -1,8 +1,8 @@
 // report.html (report_html.h): a real diagnosis of a sliding mass with a withheld friction is
 // written as report.html and rendered in headless Chromium; the DOM it dumps must hold every figure
 // the generator wrote, each <svg> laid out with a non-zero size and no script error. The verdict
-// comes first, every accepted effect is named, NaN prints as n/a, every text is escaped, and an
-// empty report gives sentences instead of figures.
+// comes first, every accepted effect is named, NaN prints as n/a, every text is escaped, an empty
+// report gives sentences instead of figures, and long records stay small (pixel envelopes).
 //
 // Chromium is required: when it is not found the test FAILS (tools/setup.sh installs Debian's
 // chromium; GRAYBOX_CHROMIUM names another binary). GRAYBOX_REPORT_HTML_COPY=FILE keeps a copy of
@@ -436,6 +436,41 @@ TEST(DiagnosisHtml, EmptyReportRendersSentencesInsteadOfFigures) {
   const std::string dom = RenderInChromium(dir / "report.html");
   if (!dom.empty()) ExpectRendered(page, dom, 0);
   if (!HasFailure()) fs::remove_all(dir);
+}
+
+TEST(DiagnosisHtml, LongRecordsAreDrawnAsPixelEnvelopes) {
+  // Two channels of a 25000-sample test split: each line keeps at most four points per pixel
+  // column of the plot (900 px wide), so the page stays small whatever the record length.
+  constexpr int kLong = 25000;
+  est::SplitEvaluation e;
+  e.name = "test";
+  e.role = est::SplitRole::kTest;
+  e.time = Eigen::VectorXd::LinSpaced(kLong, 0.0, 0.001 * (kLong - 1));
+  e.measured.resize(kLong, 2);
+  for (int k = 0; k < kLong; ++k) {
+    e.measured(k, 0) = std::sin(0.01 * k) + 0.1 * std::sin(1.3 * k);
+    e.measured(k, 1) = std::cos(0.003 * k);
+  }
+  e.simulated = 0.9 * e.measured;
+  e.simulated(100, 0) = kNaN;  // a gap in the line
+  DiagnosisReport d;
+  d.validation_role = "test";
+  d.nominal.evaluations = {e};
+  d.final_fit.evaluations = {e};
+  d.final_fit.evaluations[0].simulated = 0.99 * e.measured;
+  d.accepted.push_back(AcceptedEffect{});
+  d.accepted[0].effect = "coulomb";
+  d.nominal_localization.splits = {"test"};
+  d.nominal_localization.channels.push_back({"y1", "m", 1.0, 1.0, 0.5, 0.1});
+  d.nominal_localization.channels.push_back({"y2", "m", 1.0, 1.0, 0.5, 0.1});
+  const std::string page = DiagnosisHtml(d);
+  std::cout << "report.html with 2 x 25000 samples: " << page.size() << " bytes\n";
+  EXPECT_EQ(Count(page, " data-figure=\"overlay:test:"), 2);
+  EXPECT_EQ(Count(page, " data-figure=\"residual:test:"), 2);
+  // 4 figures x at most 3 lines (one more piece for the gap) x 4 points x 800 columns x ~12 bytes.
+  constexpr std::size_t kMaxBytes = 800000;
+  EXPECT_LT(page.size(), kMaxBytes);
+  EXPECT_TRUE(NonFiniteWords(page).empty()) << NonFiniteWords(page).front();
 }
 
 TEST(DiagnosisHtml, EscapesEveryTextAndPrintsNaNAsNa) {

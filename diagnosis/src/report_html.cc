@@ -37,7 +37,7 @@ h2 { border-bottom: 1px solid #ccc; margin-top: 2em; }
 table { border-collapse: collapse; margin: 0.6em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 3px 6px; text-align: left; vertical-align: top; }
 th { background: #f2f2f2; }
-td { overflow-wrap: anywhere; }
+.params { overflow-wrap: anywhere; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 .figure { margin: 1em 0; }
 .figure svg { max-width: 100%; height: auto; display: block; }
@@ -172,7 +172,7 @@ std::string ParameterText(const est::FitParameter& p) {
 std::string ParametersHtml(const std::vector<est::FitParameter>& parameters) {
   std::vector<std::string> lines;
   for (const est::FitParameter& p : parameters) lines.push_back(Escape(ParameterText(p)));
-  return lines.empty() ? "none" : Join(lines, "<br>");
+  return "<span class=\"params\">" + (lines.empty() ? "none" : Join(lines, "<br>")) + "</span>";
 }
 
 // The chi-square quantile: x with ChiSquareSurvival(x, dof) = alpha (bisection).

@@ -43,7 +43,7 @@ struct CommandOptions {
 
 int RunFit(const CommandOptions& options);
 int RunSimulate(const CommandOptions& options);
-/// The gap analysis (diagnosis::Diagnose): writes DIR/diagnosis.json.
+/// The gap analysis (diagnosis::Diagnose): writes DIR/diagnosis.json and DIR/report.html.
 int RunDiagnose(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.
 int RunCheck(const CommandOptions& options);

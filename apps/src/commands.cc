@@ -10,6 +10,7 @@
 
 #include "app.h"
 #include "graybox/diagnosis/diagnose.h"
+#include "graybox/diagnosis/report_html.h"
 #include "graybox/diagnosis/report_json.h"
 #include "report.h"
 
@@ -225,15 +226,19 @@ int RunDiagnose(const CommandOptions& o) {
     std::cout << d.FullReport();
     namespace fs = std::filesystem;
     fs::create_directories(o.out);
-    const std::string json =
-        diagnosis::DiagnosisJson(d, {{"command_line", o.command_line},
-                                     {"revision", GitRevision()},
-                                     {"version", Version()},
-                                     {"seed", std::to_string(problem.estimation.seed)}});
-    WriteFileAtomically((fs::path(o.out) / "diagnosis.json").string(), json);
+    const std::vector<std::pair<std::string, std::string>> run = {
+        {"command_line", o.command_line},
+        {"revision", GitRevision()},
+        {"version", Version()},
+        {"seed", std::to_string(problem.estimation.seed)}};
+    // report.html first, diagnosis.json last: a reader that finds the JSON finds the page too.
+    WriteFileAtomically((fs::path(o.out) / "report.html").string(),
+                        diagnosis::DiagnosisHtml(d, run));
+    WriteFileAtomically((fs::path(o.out) / "diagnosis.json").string(),
+                        diagnosis::DiagnosisJson(d, run));
     Progress("verdict: " + d.verdict);
-    Progress("  wrote " + (fs::path(o.out) / "diagnosis.json").string() + " (" +
-             Sci(total.Seconds()) + " s)");
+    Progress("  wrote diagnosis.json and report.html in " + o.out + " (" + Sci(total.Seconds()) +
+             " s)");
     return kExitSuccess;
   });
 }

@@ -83,6 +83,17 @@ std::string FreshInstance(const models::Model& m, const std::string& base) {
   return name;
 }
 
+// ", build 1.2 s, solve 0.4 s, ..." from the fit's phases.
+std::string Timings(const est::FitResult& fit) {
+  std::string out;
+  for (const auto& [phase, seconds] : fit.seconds) {
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), ", %s %.2g s", phase.c_str(), seconds);
+    out += buf;
+  }
+  return out;
+}
+
 }  // namespace
 
 void ReferenceOptions::Validate() const {
@@ -207,6 +218,13 @@ FlexibleReference FitFlexibleReference(const est::Problem& problem,
     }
     r.num_network_parameters = static_cast<int>(decay.parameters.size());
     if (options.weight_decay > 0.0) aug.estimation.regularization.terms.push_back(decay);
+    if (aug.estimation.method == "multiple_shooting") {
+      // Gauss-Newton on Ceres with penalised continuity: the exact Hessian of the Lagrangian that
+      // Ipopt needs is costly to build symbolically through the networks (see the file comment).
+      aug.estimation.solver = "ceres";
+      aug.estimation.multiple_shooting.continuity_as_constraints = false;
+      aug.estimation.multiple_shooting.continuity_weight = 1e3;
+    }
     est::FitOptions fo;
     fo.compute_covariance = false;
     r.fit = est::Fit(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
@@ -233,7 +251,9 @@ std::string FlexibleReference::BriefReport() const {
                 num_network_parameters);
   char v[64];
   std::snprintf(v, sizeof(v), "validation NRMSE %.4g", validation_nrmse);
-  return std::string(buf) + v;
+  return std::string(buf) + v + " (" + fit.solver_result.solver + " " + fit.solver_result.status +
+         " after " + std::to_string(fit.solver_result.iterations) + " iterations" + Timings(fit) +
+         ")";
 }
 
 }  // namespace graybox::diagnosis

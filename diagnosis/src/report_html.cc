@@ -266,14 +266,19 @@ void Summary(Page* page, const DiagnosisReport& d) {
                  Format(d.final_validation_nrmse) + " (" + Pct(d.remaining_fraction) +
                  " of the nominal error remains).",
              "metric");
+  page->Para(d.reference.BriefReport() + "; gap = nominal - reference = " + Format(d.gap) + ".",
+             "metric");
   const std::vector<std::string>& used = d.nominal_localization.splits;
   page->Para("validation NRMSE = the mean over the validation splits (role " +
                  (d.validation_role.empty() ? std::string("n/a") : d.validation_role) +
                  (used.empty() ? std::string() : "; used: " + Join(used, ", ")) +
                  ") of the mean over the output channels of NRMSE = RMSE / std(measured channel) "
-                 "of the free-run simulation from the split's initial state. Gap closed = "
-                 "(NRMSE before - NRMSE after) / nominal NRMSE; the noise floor stays in the "
-                 "denominator, so 100 % is out of reach on noisy data.",
+                 "of the free-run simulation from the split's initial state. Share of the error = "
+                 "(NRMSE before - NRMSE after) / nominal NRMSE (the noise floor stays in the "
+                 "denominator); gap closed = (NRMSE before - NRMSE after) / gap, where the gap is "
+                 "what the flexible reference (networks adding a learned force on every axis) "
+                 "removes from the nominal NRMSE; above 100 % the effect does better than the "
+                 "reference.",
              "definition");
   if (d.accepted.empty()) {
     page->Para("No effect was accepted" +
@@ -281,13 +286,14 @@ void Summary(Page* page, const DiagnosisReport& d) {
     return;
   }
   Table t({"round", "effect", "detail", "attachment", "validation NRMSE before -> after",
-           "gap closed", "LR statistic (dof)", "LR p-value", "parameters (95 % interval)"});
+           "share of the error", "gap closed", "LR statistic (dof)", "LR p-value",
+           "parameters (95 % interval)"});
   for (const AcceptedEffect& a : d.accepted) {
     t.Row({Table::Num(std::to_string(a.round)), "<b>" + Escape(a.effect) + "</b>", Escape(a.detail),
            Escape(a.attachment),
            Table::Num(Format(a.validation_nrmse_before) + " -&gt; " +
                       Format(a.validation_nrmse_after)),
-           Table::Num(Pct(a.gap_closed)),
+           Table::Num(Pct(a.error_share)), Table::Num(Pct(a.gap_closed)),
            Table::Num(Format(a.lr_statistic, "%.4g") + " (" + std::to_string(a.dof) + ")"),
            Table::Num(Format(a.lr_p_value, "%.3g")), ParametersHtml(a.parameters)});
   }

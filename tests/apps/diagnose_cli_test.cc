@@ -45,6 +45,8 @@ TEST(DiagnoseCli, EmpsWithoutCoulombNamesCoulombInDiagnosisJson) {
   // viscous and asymmetric_friction are on the axis already: coulomb is the one candidate left.
   EXPECT_EQ(d["rounds"][0]["screened"].size(), 1u);
   EXPECT_FALSE(d["run"]["revision"].get<std::string>().empty());
+  EXPECT_TRUE(fs::exists(dir / "out/report.html"));
+  EXPECT_TRUE(d["reference"]["ok"].get<bool>()) << d["reference"]["failure"];
 }
 
 TEST(DiagnoseCli, UnknownEffectIsBadInputAndWritesNothing) {

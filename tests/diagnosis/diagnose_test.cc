@@ -196,7 +196,8 @@ TEST(Diagnose, JsonHasTheDocumentedKeys) {
   const auto& a = j.at("accepted").at(0);
   EXPECT_EQ(a.at("effect").get<std::string>(), d.accepted[0].effect);
   EXPECT_FALSE(a.at("attachment").get<std::string>().empty());
-  EXPECT_DOUBLE_EQ(a.at("gap_closed").get<double>(), d.accepted[0].gap_closed);
+  EXPECT_DOUBLE_EQ(a.at("error_share").get<double>(), d.accepted[0].error_share);
+  EXPECT_TRUE(j.contains("reference"));
   EXPECT_EQ(j.at("rounds").at(0).at("screened").size(), d.rounds[0].screening.screened.size());
   EXPECT_EQ(j.at("localization").at("entries").size(), d.nominal_localization.entries.size());
   EXPECT_EQ(j.at("stop_reason").get<std::string>(), "max_effects = 1 reached");

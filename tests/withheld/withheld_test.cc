@@ -183,8 +183,11 @@ TEST(WithheldCases, FitAllCasesWhenAsked) {
   if (const char* b = std::getenv("GRAYBOX_WITHHELD_BASE")) options.bases = {b};
   for (const WithheldCase& c : MakeWithheldCases(options)) {
     const double nominal = NominalValidationNrmse(c);
-    std::printf("| %s | %.4f | %.4f | %.1f | %.2f s |\n", c.name.c_str(), nominal,
-                c.oracle_validation_nrmse, nominal / c.oracle_validation_nrmse, c.seconds);
+    const Eigen::MatrixXd& y = c.splits[1].experiment.y;
+    std::printf(
+        "| %s | %.4f | %.4f | %.1f | %.2f s | validation range of channel 0: %.3g .. %.3g |\n",
+        c.name.c_str(), nominal, c.oracle_validation_nrmse, nominal / c.oracle_validation_nrmse,
+        c.seconds, y.col(0).minCoeff(), y.col(0).maxCoeff());
     std::fflush(stdout);
     EXPECT_GE(nominal, kEffectMattersFactor * c.oracle_validation_nrmse) << c.name;
   }

@@ -379,8 +379,8 @@ BaseBuild BuildSea(const std::vector<std::string>& w) {
   }
   if (Has(w, "viscous")) AddDetail("motor viscous 0.00963 N m s/rad", &b);
   if (Has(w, "power_law_viscous")) {
-    SetTruth("power_law", {{"c", 0.02}, {"k", 1.6}, {"v0", 5.0}, {"vd", kSeaVd}}, &b);
-    AddDetail("motor power-law viscous 0.02 N m |v/5 rad/s|^1.6 beside the linear term", &b);
+    SetTruth("power_law", {{"c", 0.04}, {"k", 1.6}, {"v0", 5.0}, {"vd", kSeaVd}}, &b);
+    AddDetail("motor power-law viscous 0.04 N m |v/5 rad/s|^1.6 beside the linear term", &b);
   }
   if (Has(w, "presliding")) {
     SetTruth("lugre",
@@ -421,9 +421,9 @@ BaseBuild BuildSea(const std::vector<std::string>& w) {
     AddDetail("motor cogging 0.01 N m sin(8 q + 0.7) + 0.006 N m sin(24 q + 2.2)", &b);
   }
   if (Has(w, "rotor_inertia")) {
-    b.truth.SetParameter("sea.J", kSeaJ + 0.6e-4);
-    b.truth_values["rotor_inertia.J"] = 0.6e-4;
-    AddDetail("extra rotor inertia 6e-5 kg m^2 (nominal J fixed at 1e-4)", &b);
+    b.truth.SetParameter("sea.J", kSeaJ + 1e-4);
+    b.truth_values["rotor_inertia.J"] = 1e-4;
+    AddDetail("extra rotor inertia 1e-4 kg m^2 (nominal J fixed at 1e-4)", &b);
   }
   if (Has(w, "payload")) {
     b.truth.SetParameter("sea.I", kSeaI + 0.7e-3);
@@ -431,8 +431,8 @@ BaseBuild BuildSea(const std::vector<std::string>& w) {
     AddDetail("payload inertia 7e-4 kg m^2 on the link (nominal I fixed at 1.4e-3)", &b);
   }
   if (Has(w, "sensor_scale")) {
-    SetTruth("link_sensor", {{"scale", 1.04}, {"offset", 0.0}}, &b);
-    AddDetail("link encoder reads 1.04 x the angle", &b);
+    SetTruth("link_sensor", {{"scale", 1.06}, {"offset", 0.0}}, &b);
+    AddDetail("link encoder reads 1.06 x the angle", &b);
   }
   if (Has(w, "friction_drift")) {
     SetTruth("drift", {{"fc", kSeaCoulomb}, {"r", 1.0}, {"T", 4.0}, {"vd", kSeaVd}}, &b);
@@ -459,15 +459,15 @@ BaseBuild BuildSea(const std::vector<std::string>& w) {
 // A robot axis with gravity: a rigid arm on a horizontal pivot driven by a torque in open loop,
 // with viscous and Coulomb (tanh, 100 s/rad) friction; measured: the encoder angle.
 
-constexpr double kPendJ = 0.05, kPendMgl = 1.96, kPendViscous = 0.02, kPendCoulomb = 0.08;
+constexpr double kPendJ = 0.05, kPendMgl = 1.96, kPendViscous = 0.1, kPendCoulomb = 0.08;
 constexpr double kPendSteepness = 100.0;  // [s/rad]
 constexpr double kPendVd = 1e-3;          // [rad/s]
 constexpr double kPendCount = 2.0 * kPi / 16384.0;
 
 Eigen::MatrixXd PendulumExcitation(bool validation, double dt, int n, Rng* rng) {
-  if (!validation) return Multisine(n, dt, 0.15, 2.5, 10, 0.5, rng);
-  Eigen::VectorXd u = FilteredRandom(n, dt, 1.5, 0.35, rng);
-  u += TrapezoidalPulses(n, dt, 0.6, rng);
+  if (!validation) return Multisine(n, dt, 0.15, 2.5, 10, 0.3, rng);
+  Eigen::VectorXd u = FilteredRandom(n, dt, 1.5, 0.2, rng);
+  u += TrapezoidalPulses(n, dt, 0.5, rng);
   return u;
 }
 
@@ -541,7 +541,7 @@ BaseBuild BuildPendulum(const std::vector<std::string>& w) {
     SetTruth("stribeck", {{"ds", 0.08}, {"vs", 0.1}, {"a", 1.4}, {"vd", kPendVd}}, &b);
     AddDetail("Stribeck excess 0.08 N m exp(-|v/0.1 rad/s|^1.4), atan sign", &b);
   }
-  if (Has(w, "viscous")) AddDetail("viscous 0.02 N m s/rad", &b);
+  if (Has(w, "viscous")) AddDetail("viscous 0.1 N m s/rad", &b);
   if (Has(w, "power_law_viscous")) {
     SetTruth("power_law", {{"c", 0.05}, {"k", 0.5}, {"v0", 1.0}, {"vd", kPendVd}}, &b);
     AddDetail("power-law viscous 0.05 N m |v/1 rad/s|^0.5 beside the linear term", &b);

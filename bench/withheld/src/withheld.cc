@@ -71,7 +71,7 @@ const std::vector<CaseSpec>& Catalog() {
     c.push_back({s, "ripple_2harmonics", {"ripple"}});
     c.push_back({s, "rotor_inertia", {"rotor_inertia"}});
     c.push_back({s, "payload_inertia", {"payload"}});
-    c.push_back({s, "sensor_scale_1.04", {"sensor_scale"}});
+    c.push_back({s, "sensor_scale_1.06", {"sensor_scale"}});
     c.push_back({s, "friction_drift", {"friction_drift"}});
     c.push_back({s, "periodic_disturbance_6.3Hz", {"periodic_disturbance"}});
     c.push_back({s, "backlash+coulomb", {"backlash", "coulomb"}});

@@ -176,6 +176,30 @@ TEST(WithheldCases, TheWithheldEffectMattersAndTheTruthReproducesItsData) {
   }
 }
 
+TEST(WithheldCases, TheDelayedTruthOnItsFineGridReproducesItsData) {
+  const WithheldCase c = MakeWithheldCase("sea/input_delay_5ms/s1", Seed());
+  ASSERT_EQ(c.truth_splits.size(), 2u);
+  // The truth ran on a grid 10 times finer; the data are every 10th sample of it.
+  EXPECT_DOUBLE_EQ(c.truth_splits[0].experiment.dt * 10.0, c.splits[0].experiment.dt);
+  EXPECT_EQ(c.truth_splits[0].experiment.y.rows(), 10 * c.splits[0].experiment.y.rows());
+  ExpectTruthReproduces(c);
+}
+
+TEST(WithheldCases, NominalStartsAwayFromTheTruthInsideItsBounds) {
+  const WithheldCase c = MakeWithheldCase("sea/coulomb_atan/s1", Seed());
+  int free = 0, moved = 0;
+  for (const models::ModelParameter& p : c.nominal.built.parameters) {
+    if (!p.free) continue;
+    ++free;
+    EXPECT_GE(p.value, p.lower) << p.name;
+    EXPECT_LE(p.value, p.upper) << p.name;
+    const int t = c.truth.built.ParameterIndex(p.name);
+    moved += p.value != c.truth.built.parameters[t].value ? 1 : 0;
+  }
+  EXPECT_GT(free, 0);
+  EXPECT_EQ(moved, free);
+}
+
 TEST(WithheldCases, FitAllCasesWhenAsked) {
   if (!std::getenv("GRAYBOX_WITHHELD_FIT_ALL")) GTEST_SKIP() << "GRAYBOX_WITHHELD_FIT_ALL unset";
   WithheldOptions options;

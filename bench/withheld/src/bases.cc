@@ -405,9 +405,9 @@ BaseBuild BuildSea(const std::vector<std::string>& w) {
     AddDetail("hard dead zone of +-0.015 N m on the motor torque", &b);
   }
   if (Has(w, "input_delay")) {
-    b.delay_samples = 3;
-    b.truth_values["input_delay.seconds"] = 0.006;
-    AddDetail("exact transport delay of 6 ms (3 samples) on the motor torque", &b);
+    b.delay_seconds = 0.005;
+    b.truth_values["input_delay.seconds"] = 0.005;
+    AddDetail("exact transport delay of 5 ms (2.5 samples) on the motor torque", &b);
   }
   if (Has(w, "ripple")) {
     SetTruth("cogging",
@@ -565,9 +565,9 @@ BaseBuild BuildPendulum(const std::vector<std::string>& w) {
     AddDetail("hard dead zone of +-0.12 N m on the drive torque", &b);
   }
   if (Has(w, "input_delay")) {
-    b.delay_samples = 4;
-    b.truth_values["input_delay.seconds"] = 0.02;
-    AddDetail("exact transport delay of 20 ms (4 samples) on the drive torque", &b);
+    b.delay_seconds = 0.0175;
+    b.truth_values["input_delay.seconds"] = 0.0175;
+    AddDetail("exact transport delay of 17.5 ms (3.5 samples) on the drive torque", &b);
   }
   if (payload) {
     b.truth.SetParameter("arm.mass", kPendJ + 0.5 * 0.25 * 0.25);

@@ -22,7 +22,9 @@ struct BaseBuild {
   std::string detail;                          // the truth's effect shapes in words
   std::map<std::string, double> truth_values;  // the effects' true values
   std::map<std::string, double> x0;            // initial states of the truth by name (else 0)
-  int delay_samples = 0;                       // transport delay of the truth's input
+  /// Exact transport delay of the truth's input [s]; when > 0 the truth is simulated on a grid
+  /// kFineFactor times finer than dt, where the held command shifted by the delay is exact.
+  double delay_seconds = 0.0;
   double dt = 0.0;
   int samples = 0;
   std::vector<double> quantum;    // per output: quantisation step (0: none)

@@ -24,6 +24,9 @@ const std::vector<std::string> kBases = {"drive_closed_loop", "sea", "pendulum"}
 // Truth integration: CVODES, BDF with tight tolerances.
 constexpr double kTruthRelTol = 1e-9;
 constexpr double kTruthAbsTol = 1e-11;
+// A delayed truth is simulated on a grid this many times finer than the sample time (the delays
+// are whole multiples of the fine step).
+constexpr int kFineFactor = 10;
 // Start values of the nominal free parameters: the truth times a factor in [1 - x, 1 + x].
 constexpr double kStartPerturbation = 0.25;
 
@@ -67,7 +70,7 @@ const std::vector<CaseSpec>& Catalog() {
     c.push_back({s, "presliding_lugre", {"presliding"}});
     c.push_back({s, "backlash_hard", {"backlash"}, true});
     c.push_back({s, "deadzone_hard", {"deadzone"}});
-    c.push_back({s, "input_delay_6ms", {"input_delay"}, true});
+    c.push_back({s, "input_delay_5ms", {"input_delay"}, true});
     c.push_back({s, "ripple_2harmonics", {"ripple"}});
     c.push_back({s, "rotor_inertia", {"rotor_inertia"}});
     c.push_back({s, "payload_inertia", {"payload"}});
@@ -84,7 +87,7 @@ const std::vector<CaseSpec>& Catalog() {
     c.push_back({p, "power_law_k0.5", {"power_law_viscous"}});
     c.push_back({p, "presliding_lugre", {"presliding"}});
     c.push_back({p, "deadzone_hard", {"deadzone"}});
-    c.push_back({p, "input_delay_20ms", {"input_delay"}});
+    c.push_back({p, "input_delay_17.5ms", {"input_delay"}});
     c.push_back({p, "payload_0.5kg", {"payload"}, true});
     c.push_back({p, "rotor_inertia", {"rotor_inertia"}});
     c.push_back({p, "sensor_offset_0.06rad", {"sensor_offset"}});
@@ -168,26 +171,37 @@ WithheldCase Generate(const CaseSpec& spec, unsigned seed) {
   if (truth.NumOutputs() != nominal.NumOutputs() || truth.NumInputs() != nominal.NumInputs()) {
     throw std::logic_error("withheld case '" + c.name + "': truth and nominal differ in size");
   }
+  // Without a delay the truth runs at the sample time; with one, on the fine grid, where the
+  // held command shifted by the delay is exact (zero before the record, where the faded-in
+  // excitation is zero too).
+  const int fine = b.delay_seconds > 0.0 ? kFineFactor : 1;
+  const double dt_fine = b.dt / fine;
+  const int delay = static_cast<int>(std::lround(b.delay_seconds / dt_fine));
+  if (std::fabs(delay * dt_fine - b.delay_seconds) > 1e-9 * b.dt) {
+    throw std::logic_error("withheld case '" + c.name + "': the delay is not a whole fine step");
+  }
   const std::unique_ptr<est::Integrator> integrator =
-      est::MakeIntegrator(truth, b.dt, truth_spec.integrator);
+      est::MakeIntegrator(truth, dt_fine, truth_spec.integrator);
   const Eigen::VectorXd p_truth = truth.ParameterValues();
   const Eigen::VectorXd x0_truth = InitialState(truth, b.x0);
   const Eigen::VectorXd x0_nominal = InitialState(nominal, b.x0);
 
   for (const bool validation : {false, true}) {
     const Eigen::MatrixXd u = b.excite(validation, b.dt, b.samples, &rng);
-    Eigen::MatrixXd u_truth = Eigen::MatrixXd::Zero(u.rows(), u.cols());
-    const int delay = b.delay_samples;
-    if (delay < u.rows()) u_truth.bottomRows(u.rows() - delay) = u.topRows(u.rows() - delay);
+    const int n = static_cast<int>(u.rows());
+    Eigen::MatrixXd u_truth = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n) * fine, u.cols());
+    for (int k = 0; k + delay < u_truth.rows(); ++k) u_truth.row(k + delay) = u.row(k / fine);
     const est::Trajectory traj = integrator->Simulate(x0_truth, u_truth, p_truth);
     if (!traj.ok) {
       throw std::runtime_error("withheld case '" + c.name +
                                "': the truth simulation failed: " + traj.summary.BriefReport());
     }
-    Eigen::MatrixXd y = traj.y;
+    Eigen::MatrixXd clean(n, traj.y.cols());
+    for (int k = 0; k < n; ++k) clean.row(k) = traj.y.row(static_cast<Eigen::Index>(k) * fine);
+    Eigen::MatrixXd y = clean;
     for (int j = 0; j < y.cols(); ++j) {
       for (int k = 0; k < y.rows(); ++k) {
-        double v = traj.y(k, j) + b.noise_std[j] * rng.Normal();
+        double v = clean(k, j) + b.noise_std[j] * rng.Normal();
         if (b.quantum[j] > 0.0) v = b.quantum[j] * std::round(v / b.quantum[j]);
         y(k, j) = v;
       }
@@ -197,10 +211,8 @@ WithheldCase Generate(const CaseSpec& spec, unsigned seed) {
         validation ? est::SplitRole::kValidation : est::SplitRole::kEstimation;
     c.splits.push_back(est::MakeSplit(name, role, MakeExperiment(nominal, b.dt, u, y), x0_nominal));
     c.truth_splits.push_back(
-        est::MakeSplit(name, role, MakeExperiment(truth, b.dt, u_truth, traj.y), x0_truth));
-    if (validation) {
-      c.oracle_validation_nrmse = est::ComputeMetrics(y, traj.y).overall.nrmse;
-    }
+        est::MakeSplit(name, role, MakeExperiment(truth, dt_fine, u_truth, traj.y), x0_truth));
+    if (validation) c.oracle_validation_nrmse = est::ComputeMetrics(y, clean).overall.nrmse;
   }
   c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return c;

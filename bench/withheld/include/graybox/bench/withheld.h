@@ -87,8 +87,10 @@ struct WithheldCase {
   std::map<std::string, double> truth_parameters;
 
   /// The truth itself, for checks: the truth model with its true parameters (integrator: CVODES,
-  /// relative tolerance 1e-9), and the splits as the truth saw them (its inputs, e.g. the
-  /// command delayed by the transport delay, its noise-free outputs, its initial state).
+  /// relative tolerance 1e-9), and the splits as the truth saw them: its inputs, its noise-free
+  /// outputs, its initial state. With an input delay they are on a grid 10 times finer than the
+  /// data (dt / 10), holding the command shifted by the delay (an exact transport delay of the
+  /// held command, 2.5 or 3.5 samples); the data are every 10th sample of them.
   estimators::Problem truth;
   std::vector<estimators::SplitData> truth_splits;
   /// Seconds spent generating this case (building both models, simulating both splits).

@@ -79,6 +79,7 @@ TEST(WithheldCases, EveryCaseIsGeneratedWithItsRecord) {
     }
     EXPECT_EQ(c.in_library, in_library);
     EXPECT_FALSE(c.truth_detail.empty());
+    EXPECT_FALSE(c.truth_parameters.empty());
     ASSERT_EQ(c.splits.size(), 2u);
     EXPECT_EQ(c.splits[0].role, est::SplitRole::kEstimation);
     EXPECT_EQ(c.splits[1].role, est::SplitRole::kValidation);

@@ -225,7 +225,10 @@ BaseBuild BuildDrive(const std::vector<std::string>& w) {
     SetTruth("stribeck", {{"ds", 14.0}, {"vs", 0.02}, {"a", 1.4}, {"vd", kDriveVd}}, &b);
     AddDetail("Stribeck excess 14 N exp(-|v/0.02 m/s|^1.4) with atan sign", &b);
   }
-  if (Has(w, "viscous")) AddDetail("viscous " + Num(kDriveViscous) + " N s/m", &b);
+  if (Has(w, "viscous")) {
+    b.truth_values["viscous.fv"] = kDriveViscous;
+    AddDetail("viscous " + Num(kDriveViscous) + " N s/m", &b);
+  }
   if (Has(w, "power_law_viscous")) {
     SetTruth("power_law", {{"c", 30.0}, {"k", 0.4}, {"v0", 0.1}, {"vd", kDriveVd}}, &b);
     AddDetail("power-law viscous 30 N |v/0.1 m/s|^0.4 (atan sign) beside the linear term", &b);
@@ -377,7 +380,10 @@ BaseBuild BuildSea(const std::vector<std::string>& w) {
     SetTruth("stribeck", {{"ds", 0.012}, {"vs", 0.5}, {"a", 1.4}, {"vd", kSeaVd}}, &b);
     AddDetail("motor Stribeck excess 0.012 N m exp(-|v/0.5 rad/s|^1.4), atan sign", &b);
   }
-  if (Has(w, "viscous")) AddDetail("motor viscous 0.00963 N m s/rad", &b);
+  if (Has(w, "viscous")) {
+    b.truth_values["viscous.fv"] = kSeaViscous;
+    AddDetail("motor viscous 0.00963 N m s/rad", &b);
+  }
   if (Has(w, "power_law_viscous")) {
     SetTruth("power_law", {{"c", 0.04}, {"k", 1.6}, {"v0", 5.0}, {"vd", kSeaVd}}, &b);
     AddDetail("motor power-law viscous 0.04 N m |v/5 rad/s|^1.6 beside the linear term", &b);
@@ -541,7 +547,10 @@ BaseBuild BuildPendulum(const std::vector<std::string>& w) {
     SetTruth("stribeck", {{"ds", 0.08}, {"vs", 0.1}, {"a", 1.4}, {"vd", kPendVd}}, &b);
     AddDetail("Stribeck excess 0.08 N m exp(-|v/0.1 rad/s|^1.4), atan sign", &b);
   }
-  if (Has(w, "viscous")) AddDetail("viscous 0.1 N m s/rad", &b);
+  if (Has(w, "viscous")) {
+    b.truth_values["viscous.fv"] = kPendViscous;
+    AddDetail("viscous 0.1 N m s/rad", &b);
+  }
   if (Has(w, "power_law_viscous")) {
     SetTruth("power_law", {{"c", 0.05}, {"k", 0.5}, {"v0", 1.0}, {"vd", kPendVd}}, &b);
     AddDetail("power-law viscous 0.05 N m |v/1 rad/s|^0.5 beside the linear term", &b);

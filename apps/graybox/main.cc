@@ -6,6 +6,8 @@
 //   graybox check PROBLEM [--check-derivatives]
 //   graybox diagnose PROBLEM --out DIR [--max-effects N] [--refit-top N] [--threads N]
 //                    [--effects a,b,...]
+//   graybox bench withheld --out DIR [--fast] [--cases s1,s2] [--max-effects N] [--refit-top N]
+//                          [--threads N] [--effects a,b,...]
 //
 // Exit codes: 0 success, 1 internal error, 2 bad input (nothing written), 3 solver failure
 // (result.json written, its status says why). See docs/problem-format.md.
@@ -24,8 +26,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag(
       "--version", std::string(graybox::app::Version()) + " (" + graybox::app::GitRevision() + ")");
-  CommandOptions fit, simulate, check, diagnose;
-  for (CommandOptions* o : {&fit, &simulate, &check, &diagnose}) o->command_line = command_line;
+  CommandOptions fit, simulate, check, diagnose, withheld;
+  for (CommandOptions* o : {&fit, &simulate, &check, &diagnose, &withheld}) {
+    o->command_line = command_line;
+  }
 
   CLI::App* fit_cmd = app.add_subcommand("fit", "identify the parameters of a problem file");
   fit_cmd->add_option("problem", fit.problem, "problem file (TOML)")->required();
@@ -84,6 +88,34 @@ int main(int argc, char** argv) {
                    "candidate effects to propose, comma-separated (default: every effect)")
       ->delimiter(',');
 
+  CLI::App* bench_cmd = app.add_subcommand("bench", "benchmarks of the library");
+  bench_cmd->require_subcommand(1);
+  CLI::App* withheld_cmd = bench_cmd->add_subcommand(
+      "withheld",
+      "run the diagnosis on the withheld-effect cases (problems/withheld) and score it: "
+      "DIR/bench.json, the confusion table and the pass marks");
+  withheld_cmd->add_option("--out,-o", withheld.out, "output directory (bench.json)")->required();
+  withheld_cmd->add_flag("--fast", withheld.fast, "the small subset CI runs");
+  withheld_cmd
+      ->add_option("--cases", withheld.cases,
+                   "only the cases whose name contains one of these, comma-separated")
+      ->delimiter(',');
+  withheld_cmd
+      ->add_option("--max-effects", withheld.max_effects,
+                   "most effects forward selection accepts (default 3)")
+      ->check(CLI::NonNegativeNumber);
+  withheld_cmd
+      ->add_option("--refit-top", withheld.refit_top, "candidates re-fitted per round (default 3)")
+      ->check(CLI::NonNegativeNumber);
+  withheld_cmd
+      ->add_option("--threads", withheld.threads,
+                   "threads for screening and re-fits (default 0: one per hardware thread)")
+      ->check(CLI::NonNegativeNumber);
+  withheld_cmd
+      ->add_option("--effects", withheld.effects,
+                   "candidate effects to propose, comma-separated (default: every effect)")
+      ->delimiter(',');
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -93,5 +125,6 @@ int main(int argc, char** argv) {
   if (fit_cmd->parsed()) return graybox::app::RunFit(fit);
   if (sim_cmd->parsed()) return graybox::app::RunSimulate(simulate);
   if (diagnose_cmd->parsed()) return graybox::app::RunDiagnose(diagnose);
+  if (withheld_cmd->parsed()) return graybox::app::RunBenchWithheld(withheld);
   return graybox::app::RunCheck(check);
 }

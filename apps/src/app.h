@@ -39,12 +39,18 @@ struct CommandOptions {
   int refit_top = 3;
   int threads = 0;
   std::vector<std::string> effects;  // candidate effects to propose; empty: all
+  // bench withheld only.
+  bool fast = false;               // the CI subset
+  std::vector<std::string> cases;  // name filters
 };
 
 int RunFit(const CommandOptions& options);
 int RunSimulate(const CommandOptions& options);
 /// The gap analysis (diagnosis::Diagnose): writes DIR/diagnosis.json and DIR/report.html.
 int RunDiagnose(const CommandOptions& options);
+/// The diagnosis on the withheld-effect cases (bench/withheld): writes DIR/bench.json, prints the
+/// confusion table and the pass marks.
+int RunBenchWithheld(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.
 int RunCheck(const CommandOptions& options);
 

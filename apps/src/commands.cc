@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "app.h"
+#include "graybox/bench/withheld_bench.h"
 #include "graybox/diagnosis/diagnose.h"
 #include "graybox/diagnosis/report_html.h"
 #include "graybox/diagnosis/report_json.h"
@@ -239,6 +240,38 @@ int RunDiagnose(const CommandOptions& o) {
     Progress("verdict: " + d.verdict);
     Progress("  wrote diagnosis.json and report.html in " + o.out + " (" + Sci(total.Seconds()) +
              " s)");
+    return kExitSuccess;
+  });
+}
+
+int RunBenchWithheld(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const Timer total;
+    CheckOutputDirectory(o.out);
+    bench::WithheldBenchOptions options;
+    options.cases.fast_subset = o.fast;
+    options.name_filters = o.cases;
+    options.diagnose.max_effects = o.max_effects;
+    options.diagnose.screening.refit_top = o.refit_top;
+    options.diagnose.screening.num_threads = o.threads;
+    options.diagnose.screening.candidates.effects = o.effects;
+    options.Validate();
+    options.progress = [&total](const std::string& line) {
+      char stamp[32];
+      std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
+      Progress(std::string(stamp) + line);
+    };
+    Progress("graybox bench withheld" + std::string(o.fast ? " (fast subset)" : ""));
+    const bench::WithheldBench b = bench::RunWithheldBench(options);
+    std::cout << "confusion (rows: withheld, columns: top-ranked):\n"
+              << b.ConfusionTable() << b.Summary();
+    namespace fs = std::filesystem;
+    fs::create_directories(o.out);
+    WriteFileAtomically((fs::path(o.out) / "bench.json").string(),
+                        bench::WithheldBenchJson(b, {{"command_line", o.command_line},
+                                                     {"revision", GitRevision()},
+                                                     {"version", Version()}}));
+    Progress("wrote " + (fs::path(o.out) / "bench.json").string());
     return kExitSuccess;
   });
 }

@@ -9,6 +9,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterNetworkBlocks(registry);
   RegisterRobotBlocks(registry);
   RegisterMechanicsBlocks(registry);
+  RegisterSensorBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

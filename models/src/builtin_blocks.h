@@ -14,5 +14,6 @@ void RegisterPneumaticBlocks(BlockRegistry& registry);  // src/pneumatic_blocks.
 void RegisterNetworkBlocks(BlockRegistry& registry);    // src/network_blocks.cc
 void RegisterRobotBlocks(BlockRegistry& registry);      // src/robot_blocks.cc
 void RegisterMechanicsBlocks(BlockRegistry& registry);  // src/mechanics_blocks.cc
+void RegisterSensorBlocks(BlockRegistry& registry);     // src/sensor_blocks.cc
 
 }  // namespace graybox::models::internal

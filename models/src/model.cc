@@ -240,8 +240,63 @@ void Model::InsertOnSignal(const std::string& signal, const std::string& instanc
       if (in == signal) in = replacement;
     }
   }
-  for (auto& out : outputs_) {
-    if (out == signal) out = replacement;
+  for (std::size_t j = 0; j < outputs_.size(); ++j) {
+    if (outputs_[j] != signal) continue;
+    if (output_names_[j] == outputs_[j]) output_names_[j] = replacement;
+    outputs_[j] = replacement;
+  }
+  Augment(instance, std::move(block), {signal}, {replacement});
+}
+
+void Model::InsertOnOutput(const std::string& output, const std::string& instance,
+                           std::shared_ptr<const Block> block,
+                           const std::vector<std::string>& readers) {
+  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+    throw std::invalid_argument(
+        "model '" + name_ + "': InsertOnOutput('" + output +
+        "'): expected a block with 1 input and 1 output, got " +
+        (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
+               : std::string("null")));
+  }
+  const auto channel = std::find(output_names_.begin(), output_names_.end(), output);
+  if (channel == output_names_.end()) {
+    throw std::invalid_argument("model '" + name_ + "': InsertOnOutput: unknown output '" + output +
+                                "'" + Suggest(output, output_names_));
+  }
+  const std::size_t j = static_cast<std::size_t>(channel - output_names_.begin());
+  InsertForReaders(outputs_[j], instance, std::move(block), readers);
+  outputs_[j] = instance + ".out";
+}
+
+void Model::InsertForReaders(const std::string& signal, const std::string& instance,
+                             std::shared_ptr<const Block> block,
+                             const std::vector<std::string>& readers) {
+  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+    throw std::invalid_argument(
+        "model '" + name_ + "': InsertForReaders('" + signal +
+        "'): expected a block with 1 input and 1 output, got " +
+        (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
+               : std::string("null")));
+  }
+  const std::vector<std::string> known = Signals();
+  if (std::find(known.begin(), known.end(), signal) == known.end()) {
+    throw std::invalid_argument("model '" + name_ + "': InsertForReaders: unknown signal '" +
+                                signal + "'" + Suggest(signal, known));
+  }
+  std::vector<std::string> names;
+  for (const auto& inst : instances_) names.push_back(inst.name);
+  for (const auto& r : readers) {
+    if (!FindInstance(r)) {
+      throw std::invalid_argument("model '" + name_ + "': InsertForReaders: unknown reader '" + r +
+                                  "'" + Suggest(r, names));
+    }
+  }
+  const std::string replacement = instance + ".out";
+  for (auto& inst : instances_) {
+    if (std::find(readers.begin(), readers.end(), inst.name) == readers.end()) continue;
+    for (auto& in : inst.inputs) {
+      if (in == signal) in = replacement;
+    }
   }
   Augment(instance, std::move(block), {signal}, {replacement});
 }
@@ -252,7 +307,24 @@ void Model::InsertOnSignal(const std::string& signal, const std::string& instanc
                  std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)));
 }
 
-void Model::AddOutput(const std::string& signal) { outputs_.push_back(signal); }
+void Model::AddOutput(const std::string& signal) {
+  outputs_.push_back(signal);
+  output_names_.push_back(signal);
+}
+
+std::vector<Model::Connections> Model::Blocks() const {
+  std::vector<Connections> out;
+  for (const auto& inst : instances_) {
+    out.push_back({inst.name, inst.block->info().type, inst.inputs, inst.outputs});
+  }
+  return out;
+}
+
+std::vector<std::pair<std::string, std::string>> Model::Outputs() const {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (std::size_t j = 0; j < outputs_.size(); ++j) out.push_back({output_names_[j], outputs_[j]});
+  return out;
+}
 
 ModelParameter& Model::Parameter(const std::string& n) {
   return parameters_[IndexByName(
@@ -417,10 +489,14 @@ StateSpaceModel Model::Build() const {
     }
   }
   std::vector<Expr> y;
-  for (const auto& out : outputs_) {
+  for (std::size_t j = 0; j < outputs_.size(); ++j) {
+    const std::string& out = outputs_[j];
     y.push_back(value(out));
-    SignalInfo info = signal_info.count(out) ? signal_info[out] : SignalInfo{out, "", "", -1, 1};
-    info.name = out;
+    // An aliased channel (InsertOnOutput) keeps the metadata of the signal it was declared on.
+    const std::string& shown = signal_info.count(output_names_[j]) ? output_names_[j] : out;
+    SignalInfo info =
+        signal_info.count(shown) ? signal_info[shown] : SignalInfo{out, "", "", -1, 1};
+    info.name = output_names_[j];
     ss.outputs.push_back(info);
   }
   // Every named signal with its value (all blocks have contributed by now).

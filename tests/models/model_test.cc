@@ -131,6 +131,60 @@ TEST(Model, InsertOnSignalAtNeutralLeavesOutputsUnchanged) {
   for (std::size_t k = 0; k < before.size(); ++k) EXPECT_EQ(before[k], after[k]) << "step " << k;
 }
 
+TEST(Model, InsertOnOutputActsOnTheChannelOnlyAndKeepsItsName) {
+  Model m = BrakedInertia();
+  m.InsertOnOutput("load.omega", "sensor", std::make_shared<Gain>());
+  m.SetParameter("sensor.k", 2.0);
+  const StateSpaceModel ss = m.Build();
+  ASSERT_EQ(ss.NumOutputs(), 1);
+  EXPECT_EQ(ss.outputs[0].name, "load.omega");
+  EXPECT_EQ(ss.outputs[0].unit, "rad/s");
+  EXPECT_EQ(m.Outputs()[0], (std::pair<std::string, std::string>{"load.omega", "sensor.out"}));
+  // The brake still reads the true speed: xdot = (u - b omega) / J; the output is k omega.
+  const Eigen::VectorXd x = Eigen::VectorXd::Constant(1, 2.0),
+                        u = Eigen::VectorXd::Constant(1, 1.0);
+  constexpr double kExact = 1e-15;
+  EXPECT_NEAR(ss.dynamics({x, u, ss.ParameterValues()})[0][0], (1.0 - 0.2 * 2.0) / 0.5, kExact);
+  EXPECT_NEAR(ss.output({x, u, ss.ParameterValues()})[0][0], 4.0, kExact);
+  // A listed reader reads the sensor: the brake then brakes with b k omega.
+  Model r = BrakedInertia();
+  r.InsertOnOutput("load.omega", "sensor", std::make_shared<Gain>(), {"brake"});
+  r.SetParameter("sensor.k", 2.0);
+  const StateSpaceModel rs = r.Build();
+  EXPECT_NEAR(rs.dynamics({x, u, rs.ParameterValues()})[0][0], (1.0 - 0.2 * 4.0) / 0.5, kExact);
+  EXPECT_THROW(m.InsertOnOutput("load.omegaa", "s2", std::make_shared<Gain>()),
+               std::invalid_argument);
+  EXPECT_THROW(m.InsertOnOutput("load.omega", "s3", std::make_shared<Gain>(), {"brak"}),
+               std::invalid_argument);
+}
+
+TEST(Model, InsertForReadersLeavesOtherReadersAndOutputs) {
+  // The gain on u for the inertia only: the brake writes to u, so the inertia reads k (u - b w).
+  Model m("two_readers");
+  m.AddInput("u", "N m", "motor torque");
+  m.AddBlock("load", std::make_shared<Inertia>(), {"u"}, {});
+  m.AddBlock("brake", std::make_shared<Brake>(), {"load.omega"}, {"-u"});
+  m.AddBlock("monitor", std::make_shared<Gain>(), {"u"}, {"logged"});
+  m.AddOutput("u");
+  m.AddOutput("logged");
+  m.InsertForReaders("u", "amp", std::make_shared<Gain>(), {"load"});
+  m.SetParameter("amp.k", 3.0);
+  const StateSpaceModel ss = m.Build();
+  EXPECT_EQ(ss.outputs[0].name, "u");
+  const Eigen::VectorXd x = Eigen::VectorXd::Constant(1, 2.0),
+                        u = Eigen::VectorXd::Constant(1, 1.0);
+  const Eigen::VectorXd p = ss.ParameterValues();
+  constexpr double kExact = 1e-15;
+  EXPECT_NEAR(ss.dynamics({x, u, p})[0][0], 3.0 * (1.0 - 0.2 * 2.0) / 0.5, kExact);
+  const Eigen::VectorXd y = ss.output({x, u, p})[0];
+  EXPECT_NEAR(y[0], 1.0 - 0.2 * 2.0, kExact);          // the output keeps the signal
+  EXPECT_NEAR(y[1], 2.0 * (1.0 - 0.2 * 2.0), kExact);  // the monitor (k = 2) too
+  ASSERT_EQ(m.Blocks().size(), 4u);
+  EXPECT_EQ(m.Blocks()[0].inputs[0], "amp.out");
+  EXPECT_EQ(m.Blocks()[2].inputs[0], "u");
+  EXPECT_EQ(m.Blocks()[3].type, "test.gain");
+}
+
 TEST(Model, UnknownSignalIsReportedWithASuggestion) {
   Model m("typo");
   m.AddInput("u", "N m");

@@ -34,12 +34,16 @@
 // parameters move (blocks whose effect vanishes at neutral: friction terms, residual networks with
 // zero output weights). InsertOnSignal() puts a single-input single-output block in series on a
 // signal (an input delay on a motor torque, a dead zone): every reader of the signal then reads the
-// block's output instead. Both are what the sim-to-real gap diagnosis does for every candidate
+// block's output instead. InsertForReaders() does the same for chosen block instances only (a
+// dead zone in the drive that reads a controller output the data also log), and InsertOnOutput()
+// for a measured channel only (a sensor offset: the physics keeps reading the true signal, the
+// channel keeps its name). These are what the sim-to-real gap diagnosis does for every candidate
 // effect.
 #pragma once
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "graybox/expr/function.h"
@@ -183,8 +187,42 @@ class Model {
   void InsertOnSignal(const std::string& signal, const std::string& instance,
                       const std::string& type, const BlockOptions& options = {});
 
+  /// Puts a one-input one-output block in series on the measured channel `output` only (a sensor
+  /// error): the block reads the channel's signal and the channel then reports "<instance>.out"
+  /// while keeping its name (StateSpaceModel::outputs[j].name, the name data, output weights and
+  /// reports use). Block inputs that read the signal keep reading it, except those of the
+  /// instances listed in `readers` (a controller that reads the same sensor), which read
+  /// "<instance>.out" too. Parameters start at their neutral values. Throws
+  /// std::invalid_argument for an unknown output or reader, or a block that is not 1-in 1-out.
+  void InsertOnOutput(const std::string& output, const std::string& instance,
+                      std::shared_ptr<const Block> block,
+                      const std::vector<std::string>& readers = {});
+
+  /// Puts a one-input one-output block in series on `signal` for the block instances `readers`
+  /// only (an actuator error on the command one block acts on): the block reads `signal`, and
+  /// those instances' inputs that read `signal` read "<instance>.out" instead; other readers and
+  /// the model outputs keep reading `signal` (a logged command stays the command). Parameters
+  /// start at their neutral values. Throws std::invalid_argument for an unknown signal or reader,
+  /// or a block that is not 1-in 1-out.
+  void InsertForReaders(const std::string& signal, const std::string& instance,
+                        std::shared_ptr<const Block> block,
+                        const std::vector<std::string>& readers);
+
   /// Declares an output (a measured channel) as a signal name.
   void AddOutput(const std::string& signal);
+
+  /// One block instance and its connections, as added.
+  struct Connections {
+    std::string instance;
+    std::string type;                  // BlockInfo::type
+    std::vector<std::string> inputs;   // the signal each block input reads
+    std::vector<std::string> outputs;  // the connection of each output ("-name", "name", "")
+  };
+  /// Every block instance in the order added.
+  std::vector<Connections> Blocks() const;
+  /// The declared output channels: (channel name, signal it reports), in declaration order. The
+  /// two are equal unless InsertOnOutput put a block on the channel.
+  std::vector<std::pair<std::string, std::string>> Outputs() const;
 
   /// Parameter access by qualified name (did-you-mean on unknown names).
   ModelParameter& Parameter(const std::string& name);
@@ -216,7 +254,8 @@ class Model {
   std::string name_;
   std::vector<Input> inputs_;
   std::vector<Instance> instances_;
-  std::vector<std::string> outputs_;
+  std::vector<std::string> outputs_;       // the signal each channel reports
+  std::vector<std::string> output_names_;  // the channel's name (outputs_[j] unless aliased)
   std::vector<ModelParameter> parameters_;
 };
 

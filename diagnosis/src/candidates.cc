@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -12,6 +13,7 @@
 #include <Eigen/Core>
 
 #include "graybox/models/friction.h"
+#include "graybox/models/sensors.h"
 
 namespace graybox::diagnosis {
 namespace {
@@ -20,12 +22,11 @@ using models::BlockOptions;
 using models::SignalRole;
 using models::SignalSource;
 
-const std::vector<std::string>& KnownEffects() {
-  static const std::vector<std::string> known = {"coulomb",    "asymmetric_friction", "stribeck",
-                                                 "viscous",    "power_law_viscous",   "presliding",
-                                                 "input_delay"};
-  return known;
-}
+constexpr double kTwoPi = 6.28318530717958647692;
+
+// Relative agreement of dq/dt with v that makes q the axis' position (the same expression, so
+// rounding only).
+constexpr double kPositionMatchTolerance = 1e-12;
 
 // The friction-family candidates: effect, detail, block type.
 struct FrictionKind {
@@ -110,13 +111,225 @@ std::string FreshInstance(const models::Model& model, const std::string& base,
   }
 }
 
+// The axis' position: a state of role position in m (rad) whose derivative is v (file comment).
+std::string AxisPosition(const models::StateSpaceModel& built, const MechanicalAxis& axis) {
+  const int v = built.StateIndex(axis.velocity);
+  const TestPoint t = MakeTestPoint(built, v);
+  TestPoint t2 = t;
+  t2.x[v] = -0.3 * t.x[v] + 0.1;
+  const Eigen::VectorXd f1 = built.dynamics({t.x, t.u, t.p})[0];
+  const Eigen::VectorXd f2 = built.dynamics({t2.x, t2.u, t2.p})[0];
+  const std::string unit = axis.prismatic ? "m" : "rad";
+  for (int i = 0; i < built.NumStates(); ++i) {
+    if (i == v || built.states[i].unit != unit) continue;
+    const auto& s = built.signals[built.SignalIndex(built.states[i].name)];
+    if (s.info.role != SignalRole::kPosition) continue;
+    auto close = [](double a, double b) {
+      return std::fabs(a - b) <= kPositionMatchTolerance * std::max(1.0, std::fabs(b));
+    };
+    if (close(f1[i], t.x[v]) && close(f2[i], t2.x[v])) return built.states[i].name;
+  }
+  return "";
+}
+
+// The parameters of `block` instantiated as `c.instance`: those with a neutral value screened and
+// re-fitted, the others (shapes) held at nominal for the test and freed to re-fit. Returns the
+// held.
+std::vector<std::string> SplitParameters(const models::Block& block, Candidate* c) {
+  std::vector<std::string> held;
+  for (const auto& p : block.info().parameters) {
+    const std::string q = c->instance + "." + p.name;
+    c->parameters.push_back(q);
+    if (p.HasNeutral()) {
+      c->screened.push_back(q);
+    } else {
+      held.push_back(q);
+    }
+    c->refit.push_back(q);
+  }
+  return held;
+}
+
+// Options "unit" and "typical_range" of the sensor and actuator blocks from a signal's metadata.
+BlockOptions QuantityOptions(const models::SignalInfo& info) {
+  BlockOptions o;
+  o.words["unit"] = info.unit.empty() ? "1" : info.unit;
+  if (info.typical_min < info.typical_max) {
+    o.numbers["typical_range"] = {info.typical_min, info.typical_max};
+  }
+  return o;
+}
+
+std::vector<std::string> ReadersOf(const models::Model& model, const std::string& signal) {
+  std::vector<std::string> readers;
+  for (const auto& b : model.Blocks()) {
+    if (std::find(b.inputs.begin(), b.inputs.end(), signal) != b.inputs.end()) {
+      readers.push_back(b.instance);
+    }
+  }
+  return readers;
+}
+
+std::string Join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+// deadzone (file comment): the axis' free inputs, and the command inputs of the non-friction
+// blocks that write the axis force.
+void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis,
+                  std::set<std::string>* taken, std::set<std::string>* done,
+                  std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  const auto blocks = problem.model.Blocks();
+  std::vector<std::pair<std::string, std::vector<std::string>>> commands;  // signal, readers
+  for (const auto& input : axis.inputs) {
+    commands.push_back({input, ReadersOf(problem.model, input)});
+  }
+  const auto& force = built.signals[built.SignalIndex(axis.force)];
+  for (const auto& producer : force.blocks) {
+    for (const auto& b : blocks) {
+      if (b.instance != producer || b.type.rfind("friction.", 0) == 0) continue;
+      for (const auto& in : b.inputs) {
+        const auto& s = built.signals[built.SignalIndex(in)];
+        const SignalRole role = s.info.role;
+        if (s.source == SignalSource::kState || role == SignalRole::kPosition ||
+            role == SignalRole::kVelocity || role == SignalRole::kAcceleration) {
+          continue;
+        }
+        commands.push_back({in, {producer}});
+      }
+    }
+  }
+  for (const auto& [signal, readers] : commands) {
+    if (readers.empty() || !done->insert(signal).second) continue;
+    const auto& info = built.signals[built.SignalIndex(signal)].info;
+    Candidate c;
+    c.effect = "deadzone";
+    c.detail = models::kActuatorDeadzone;
+    c.attachment = "command " + signal + " -> " + Join(readers);
+    c.instance = FreshInstance(problem.model, "deadzone", taken);
+    const auto block = std::shared_ptr<const models::Block>(
+        models::BlockRegistry::Global().Create(models::kActuatorDeadzone, QuantityOptions(info)));
+    const std::vector<std::string> held = SplitParameters(*block, &c);
+    const std::string instance = c.instance;
+    const std::string sig = signal;
+    const std::vector<std::string> rd = readers;
+    c.apply = [block, instance, sig, rd, held](models::Model* m) {
+      m->InsertForReaders(sig, instance, block, rd);
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
+// The default ripple periods of an axis (file comment).
+std::vector<double> DefaultRipplePeriods(const models::StateSpaceModel& built,
+                                         const MechanicalAxis& axis) {
+  double span = kTwoPi;
+  if (axis.prismatic) {
+    const auto& q = built.states[built.StateIndex(axis.position)];
+    span = q.typical_max - q.typical_min;
+    if (!(span > 0.0)) return {};
+  }
+  return {span, span / 2.0, span / 4.0, span / 8.0};
+}
+
+// ripple (file comment): one first-harmonic candidate per period.
+void AddRipples(const estimators::Problem& problem, const MechanicalAxis& axis,
+                const CandidateOptions& options, std::set<std::string>* taken,
+                std::vector<Candidate>* out) {
+  if (axis.position.empty()) return;
+  const std::vector<double> periods = options.ripple_periods.empty()
+                                          ? DefaultRipplePeriods(problem.built, axis)
+                                          : options.ripple_periods;
+  for (const double period : periods) {
+    BlockOptions o = Motion(axis.prismatic);
+    o.numbers["harmonics"] = {1};
+    o.numbers["period"] = {period};
+    Candidate c;
+    c.effect = "ripple";
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), "period %.6g %s", period, axis.prismatic ? "m" : "rad");
+    c.detail = buf;
+    c.attachment = "position " + axis.position + " -> force " + axis.force;
+    c.instance = FreshInstance(problem.model, "ripple", taken);
+    const auto block = std::shared_ptr<const models::Block>(
+        models::BlockRegistry::Global().Create(models::kRippleFriction, o));
+    const std::vector<std::string> held = SplitParameters(*block, &c);
+    const std::string instance = c.instance, position = axis.position, connection = axis.connection;
+    c.apply = [block, instance, position, connection, held](models::Model* m) {
+      m->Augment(instance, block, {position}, {connection});
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
+// sensor_offset, sensor_scale (file comment): on every output channel; a second variant where a
+// controller reads the channel's signal too.
+void AddSensors(const estimators::Problem& problem, const std::string& effect,
+                std::set<std::string>* taken, std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  const std::string type = effect == "sensor_offset" ? models::kSensorOffset : models::kSensorScale;
+  const auto blocks = problem.model.Blocks();
+  for (const auto& [channel, signal] : problem.model.Outputs()) {
+    std::vector<std::string> controllers;
+    for (const auto& b : blocks) {
+      if (b.type.rfind("control.", 0) == 0 &&
+          std::find(b.inputs.begin(), b.inputs.end(), signal) != b.inputs.end()) {
+        controllers.push_back(b.instance);
+      }
+    }
+    const models::SignalInfo& info = built.outputs[built.OutputIndex(channel)];
+    for (const bool feedback : {false, true}) {
+      if (feedback && controllers.empty()) continue;
+      Candidate c;
+      c.effect = effect;
+      c.detail = type + (feedback ? ", output and feedback" : ", output");
+      c.attachment = "output " + channel + (feedback ? " and controller " + Join(controllers) : "");
+      c.instance = FreshInstance(problem.model, effect, taken);
+      const auto block = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(type, QuantityOptions(info)));
+      const std::vector<std::string> held = SplitParameters(*block, &c);
+      const std::string instance = c.instance, ch = channel;
+      const std::vector<std::string> readers = feedback ? controllers : std::vector<std::string>{};
+      c.apply = [block, instance, ch, readers, held](models::Model* m) {
+        m->InsertOnOutput(ch, instance, block, readers);
+        for (const auto& q : held) m->Fix(q);
+      };
+      out->push_back(std::move(c));
+    }
+  }
+}
+
 }  // namespace
+
+const std::vector<std::string>& AllEffects() {
+  static const std::vector<std::string> all = {
+      "coulomb",     "asymmetric_friction", "stribeck", "viscous", "power_law_viscous",
+      "presliding",  "input_delay",         "deadzone", "ripple",  "sensor_offset",
+      "sensor_scale"};
+  return all;
+}
+
+const std::vector<std::string>& DefaultEffects() {
+  static const std::vector<std::string> defaults(AllEffects().begin(), AllEffects().begin() + 7);
+  return defaults;
+}
 
 std::string Candidate::Name() const { return effect + " (" + detail + ") on " + attachment; }
 
 void CandidateOptions::Validate() const {
+  for (const double p : ripple_periods) {
+    if (!std::isfinite(p) || !(p > 0.0)) {
+      throw std::invalid_argument(
+          "CandidateOptions.ripple_periods: expected finite periods > 0, got " + std::to_string(p));
+    }
+  }
   for (const auto& e : effects) {
-    const auto& known = KnownEffects();
+    const auto& known = AllEffects();
     if (std::find(known.begin(), known.end(), e) == known.end()) {
       std::string list;
       for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
@@ -194,6 +407,7 @@ std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
       const double a1 = Acceleration(built, ti, state);
       if (std::isfinite(a1) && a1 != a0) axis.inputs.push_back(built.inputs[i].name);
     }
+    axis.position = AxisPosition(built, axis);
     axes.push_back(axis);
   }
   return axes;
@@ -203,12 +417,14 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
                                            const CandidateOptions& options) {
   options.Validate();
   auto wanted = [&](const std::string& effect) {
-    return options.effects.empty() || std::find(options.effects.begin(), options.effects.end(),
-                                                effect) != options.effects.end();
+    const std::vector<std::string>& list =
+        options.effects.empty() ? DefaultEffects() : options.effects;
+    return std::find(list.begin(), list.end(), effect) != list.end();
   };
   std::vector<Candidate> out;
   std::set<std::string> taken;
   std::set<std::string> delayed_inputs;
+  std::set<std::string> deadzoned;
   for (const MechanicalAxis& axis : FindAxes(problem)) {
     auto present = [&](const std::string& type) {
       return std::find(axis.present_types.begin(), axis.present_types.end(), type) !=
@@ -248,6 +464,8 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       };
       out.push_back(std::move(c));
     }
+    if (wanted("deadzone")) AddDeadzones(problem, axis, &taken, &deadzoned, &out);
+    if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
     if (!wanted("input_delay")) continue;
     for (const auto& input : axis.inputs) {
       if (!delayed_inputs.insert(input).second) continue;
@@ -282,6 +500,9 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       };
       out.push_back(std::move(c));
     }
+  }
+  for (const char* effect : {"sensor_offset", "sensor_scale"}) {
+    if (wanted(effect)) AddSensors(problem, effect, &taken, &out);
   }
   return out;
 }

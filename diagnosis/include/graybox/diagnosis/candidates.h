@@ -58,11 +58,63 @@
 // Candidate::refit what a re-fit frees. Everything in `parameters` outside `refit` stays at the
 // value Augment gave it.
 //
-// Not yet proposed here: backlash, deadzone, elasticity, ripple, payload, rotor_inertia,
-// sensor_offset, sensor_scale, leakage, polytropic_index, LuGre presliding, structural choices.
+// ---- Actuator, position and sensor effects (models/sensors.h, friction.h) ---------------------
+//   deadzone       actuator.deadzone  b free (neutral 0, the exact pass-through; lower bound 0);
+//                                     smoothing eps = 1e-3 of the command's typical magnitude.
+//                  In series on an actuator command, Model::InsertForReaders: (a) every input of
+//                  the axis' `inputs` (read by every block that reads it), (b) every input signal
+//                  of a block that writes F and is not of a "friction." type (the drive gain of a
+//                  closed loop reads the controller output), except states and signals of role
+//                  position, velocity or acceleration, read by that block only. The model's outputs
+//                  keep the command (a logged controller output is the command before the dead
+//                  zone). A signal gets one dead zone. A force input that friction writes to is a
+//                  sum, not a command: no dead zone there (as for input_delay). Detail
+//                  "actuator.deadzone", attachment "command <signal> -> <readers>".
+//   ripple         friction.ripple    a1, b1 free (neutral 0; amplitude and phase, both linear),
+//                                     one harmonic, period P an option (held in the re-fit too).
+//                  On every axis with a position: a state of role position in m (rad) whose time
+//                  derivative is v (dq/dt equals v at the test point and at a second value of v, to
+//                  1e-12 relative). Reads the position, writes "-F" (or "+F"). One candidate per
+//                  period: CandidateOptions::ripple_periods when given, else the span
+//                  typical_max - typical_min of the position (2 pi rad on a rotational axis) over
+//                  1, 2, 4 and 8. Detail "period <P> <m|rad>". The period cannot be screened by a
+//                  score test (the output does not depend on it at a zero amplitude), hence one
+//                  candidate per period: the best score picks the period among those proposed. A
+//                  period outside the set (a 36-slot motor's cogging at 2 pi / 36) is found only
+//                  when given in ripple_periods, from the design (pole and slot counts, screw lead,
+//                  gear teeth) or from the peaks of the nominal residuals' spectrum against
+//                  position (which the diagnosis does not compute yet). A ripple seen over a short
+//                  stroke looks to first order like a constant force (the axis lingers at its
+//                  turning points): screen it on data that travel several periods.
+//   sensor_offset  sensor.offset      b free (neutral 0): y_meas = y + b
+//   sensor_scale   sensor.scale       s free (neutral 0): y_meas = (1 + s) y
+//                  On every output channel (Model::Outputs), with the channel's unit and typical
+//                  range, Model::InsertOnOutput: the channel reports the sensor block's output and
+//                  keeps its name (data, output weights and reports name channels). Two variants:
+//                  detail "<type>, output": the output only, the physics keeps reading the true
+//                  signal; "<type>, output and feedback", proposed when blocks of a "control." type
+//                  read the channel's signal: those controllers read the sensor block's output
+//                  too. Why both: physically a controller reads a sensor, and in closed loop an
+//                  offset on that sensor moves the plant (the loop regulates q + b to the
+//                  reference, so q = qr - b and the logged q + b follows qr), while an offset on a
+//                  logged channel alone does not; but the metadata cannot tell whether the logged
+//                  channel is the controller's sensor (a motor encoder in the loop, a load encoder
+//                  logged), so the two hypotheses are scored separately. Friction and other
+//                  physics blocks never read the sensor.
+//
+// Default set. An empty CandidateOptions::effects proposes DefaultEffects(): the friction family
+// and input_delay. The effects above are proposed when named (or with effects = AllEffects()): they
+// add 4 ripple candidates per axis and 2 to 4 sensor candidates per channel, which multiplies the
+// score tests (runtime, and the family-wise false-alarm rate of a threshold on p), and they have
+// been checked on synthetic data only (tests/diagnosis/candidates_test.cc), not yet on the EMPS and
+// KUKA records the default set is tested on.
+//
+// Not yet proposed here: backlash, elasticity, payload, rotor_inertia, leakage, polytropic_index,
+// LuGre presliding, structural choices.
 //
 // Failure behaviour. An unknown name in CandidateOptions::effects throws std::invalid_argument
-// with a did-you-mean. A model without an axis gives no candidates (not an error).
+// with a did-you-mean; so does a ripple period that is not finite and > 0. A model without an axis
+// gives no candidates (not an error).
 #pragma once
 
 #include <functional>
@@ -77,11 +129,15 @@ namespace graybox::diagnosis {
 /// One candidate effect: an augmentation of the model at its neutral value.
 struct Candidate {
   /// The effect's name from issue 10's list: "coulomb", "asymmetric_friction", "stribeck",
-  /// "viscous", "power_law_viscous", "presliding", "input_delay".
+  /// "viscous", "power_law_viscous", "presliding", "input_delay", "deadzone", "ripple",
+  /// "sensor_offset", "sensor_scale".
   std::string effect;
-  /// The variant or block: "dahl" for presliding, else the block type ("friction.coulomb").
+  /// The variant or block: "dahl" for presliding, "period 0.0625 m" for ripple, "sensor.offset,
+  /// output" (or ", output and feedback") for the sensors, else the block type
+  /// ("friction.coulomb").
   std::string detail;
-  /// Where it attaches: "velocity load.qd -> force force" or "input u".
+  /// Where it attaches: "velocity load.qd -> force force", "input u", "command nu -> drive",
+  /// "position load.q -> force force" or "output load.q [and controller c]".
   std::string attachment;
   /// The new block's instance name.
   std::string instance;
@@ -99,17 +155,33 @@ struct Candidate {
 };
 
 struct CandidateOptions {
-  /// Effects to propose (names as in Candidate::effect); empty: every effect this layer knows.
+  /// Effects to propose (names as in Candidate::effect); empty: DefaultEffects(). AllEffects()
+  /// proposes everything this layer knows.
   std::vector<std::string> effects;
-  /// Throws std::invalid_argument for an unknown effect name (with a did-you-mean).
+  /// Periods [m or rad] of the ripple candidates, one candidate each on every axis with a
+  /// position (the pole or slot pitch, a screw lead, a gear-tooth pitch, or the peaks of the
+  /// residual spectrum against position); empty: the defaults of the file comment. Each > 0.
+  std::vector<double> ripple_periods = {};
+  /// Throws std::invalid_argument for an unknown effect name (with a did-you-mean) or a period
+  /// that is not finite and > 0.
   void Validate() const;
 };
+
+/// Every effect this layer can propose, in enumeration order: the friction family and
+/// input_delay, then deadzone, ripple, sensor_offset, sensor_scale.
+const std::vector<std::string>& AllEffects();
+/// What an empty CandidateOptions::effects proposes: coulomb, asymmetric_friction, stribeck,
+/// viscous, power_law_viscous, presliding, input_delay (see "Default set" in the file comment).
+const std::vector<std::string>& DefaultEffects();
 
 /// A mechanical axis found from metadata (see the file comment).
 struct MechanicalAxis {
   std::string velocity;    // a state signal of role velocity
   std::string force;       // the force signal acting on it
   std::string connection;  // "-force" (the usual convention) or "force"
+  /// The axis' position: a state of role position whose time derivative is `velocity` (ripple
+  /// attaches there); empty when the model has none.
+  std::string position;
   bool prismatic = false;  // velocity in m/s (else rad/s)
   /// External inputs feeding the axis that no block writes to (input_delay attaches there).
   std::vector<std::string> inputs;

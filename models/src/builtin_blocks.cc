@@ -10,6 +10,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterRobotBlocks(registry);
   RegisterMechanicsBlocks(registry);
   RegisterSensorBlocks(registry);
+  RegisterLoadBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

@@ -15,5 +15,6 @@ void RegisterNetworkBlocks(BlockRegistry& registry);    // src/network_blocks.cc
 void RegisterRobotBlocks(BlockRegistry& registry);      // src/robot_blocks.cc
 void RegisterMechanicsBlocks(BlockRegistry& registry);  // src/mechanics_blocks.cc
 void RegisterSensorBlocks(BlockRegistry& registry);     // src/sensor_blocks.cc
+void RegisterLoadBlocks(BlockRegistry& registry);       // src/load_blocks.cc
 
 }  // namespace graybox::models::internal

@@ -270,11 +270,13 @@ void Model::InsertOnOutput(const std::string& output, const std::string& instanc
 
 void Model::InsertForReaders(const std::string& signal, const std::string& instance,
                              std::shared_ptr<const Block> block,
-                             const std::vector<std::string>& readers) {
-  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+                             const std::vector<std::string>& readers,
+                             const std::vector<std::string>& extra_inputs) {
+  const int inputs = 1 + static_cast<int>(extra_inputs.size());
+  if (!block || block->NumInputs() != inputs || block->NumOutputs() != 1) {
     throw std::invalid_argument(
-        "model '" + name_ + "': InsertForReaders('" + signal +
-        "'): expected a block with 1 input and 1 output, got " +
+        "model '" + name_ + "': InsertForReaders('" + signal + "'): expected a block with " +
+        std::to_string(inputs) + " input(s) and 1 output, got " +
         (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
                : std::string("null")));
   }
@@ -298,7 +300,9 @@ void Model::InsertForReaders(const std::string& signal, const std::string& insta
       if (in == signal) in = replacement;
     }
   }
-  Augment(instance, std::move(block), {signal}, {replacement});
+  std::vector<std::string> block_inputs = {signal};
+  block_inputs.insert(block_inputs.end(), extra_inputs.begin(), extra_inputs.end());
+  Augment(instance, std::move(block), block_inputs, {replacement});
 }
 
 void Model::InsertOnSignal(const std::string& signal, const std::string& instance,

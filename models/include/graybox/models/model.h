@@ -202,11 +202,13 @@ class Model {
   /// only (an actuator error on the command one block acts on): the block reads `signal`, and
   /// those instances' inputs that read `signal` read "<instance>.out" instead; other readers and
   /// the model outputs keep reading `signal` (a logged command stays the command). Parameters
-  /// start at their neutral values. Throws std::invalid_argument for an unknown signal or reader,
-  /// or a block that is not 1-in 1-out.
+  /// start at their neutral values. A block with more inputs reads `extra_inputs` on inputs 2, 3,
+  /// ... (a payload's gravity reads the axis position). Throws std::invalid_argument for an
+  /// unknown signal or reader, or a block that does not have 1 + extra_inputs.size() inputs and
+  /// 1 output.
   void InsertForReaders(const std::string& signal, const std::string& instance,
-                        std::shared_ptr<const Block> block,
-                        const std::vector<std::string>& readers);
+                        std::shared_ptr<const Block> block, const std::vector<std::string>& readers,
+                        const std::vector<std::string>& extra_inputs = {});
 
   /// Declares an output (a measured channel) as a signal name.
   void AddOutput(const std::string& signal);

@@ -13,6 +13,8 @@
 #include <Eigen/Core>
 
 #include "graybox/models/friction.h"
+#include "graybox/models/loads.h"
+#include "graybox/models/mechanics.h"
 #include "graybox/models/sensors.h"
 
 namespace graybox::diagnosis {
@@ -41,6 +43,7 @@ constexpr FrictionKind kFrictionKinds[] = {
     {"viscous", "friction.viscous", "friction.viscous"},
     {"power_law_viscous", "friction.power_viscous", "friction.power_viscous"},
     {"presliding", "dahl", "friction.dahl"},
+    {"presliding", "lugre", "friction.lugre"},
 };
 
 BlockOptions Motion(bool prismatic) {
@@ -304,13 +307,100 @@ void AddSensors(const estimators::Problem& problem, const std::string& effect,
   }
 }
 
+// The rigid body that integrates the axis force (mechanics.mass owning v and reading F), for the
+// added-load candidates; empty when the axis has none.
+struct RigidBody {
+  std::string instance, mass;  // the instance and its inertia parameter
+  bool mass_free = false;
+};
+RigidBody FindRigidBody(const estimators::Problem& problem, const MechanicalAxis& axis) {
+  const models::StateSpaceModel& built = problem.built;
+  const auto& v = built.signals[built.SignalIndex(axis.velocity)];
+  if (v.blocks.size() != 1) return {};
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.instance != v.blocks[0] || b.type != models::kMassBlock || b.inputs.size() != 1 ||
+        b.inputs[0] != axis.force) {
+      continue;
+    }
+    RigidBody body{b.instance, b.instance + ".mass", false};
+    body.mass_free = built.parameters[built.ParameterIndex(body.mass)].free;
+    return body;
+  }
+  return {};
+}
+
+// rotor_inertia and payload (file comment).
+void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bool inertia,
+              bool payload, std::set<std::string>* taken, std::vector<Candidate>* out) {
+  const RigidBody body = FindRigidBody(problem, axis);
+  if (body.instance.empty()) return;
+  const double mass_now = problem.built.parameters[problem.built.ParameterIndex(body.mass)].value;
+  struct Variant {
+    std::string effect, type, detail;
+    double gravity;  // prismatic payload: g along +q
+  };
+  std::vector<Variant> variants;
+  // An added inertia next to a free inertia is the same unknown twice.
+  if (inertia && !body.mass_free) {
+    variants.push_back({"rotor_inertia", models::kAddedInertia, models::kAddedInertia, 0.0});
+  }
+  if (payload && !axis.position.empty()) {
+    if (axis.prismatic) {
+      variants.push_back(
+          {"payload", models::kPayload, "vertical, q up", -models::kStandardGravity});
+      variants.push_back(
+          {"payload", models::kPayload, "vertical, q down", models::kStandardGravity});
+    } else {
+      variants.push_back({"payload", models::kPayload, "rotational", 0.0});
+    }
+  }
+  for (const Variant& var : variants) {
+    const bool is_payload = var.effect == "payload";
+    const bool prismatic = axis.prismatic;
+    const double gravity = var.gravity;
+    auto options = [prismatic, is_payload, gravity](double mass) {
+      BlockOptions o = Motion(prismatic);
+      o.numbers["axis_inertia"] = {mass};
+      if (is_payload && prismatic) o.numbers["gravity"] = {gravity};
+      return o;
+    };
+    Candidate c;
+    c.effect = var.effect;
+    c.detail = var.detail;
+    c.attachment = "force " + axis.force + " -> " + body.instance +
+                   (is_payload ? ", position " + axis.position : "");
+    c.instance = FreshInstance(problem.model, var.effect, taken);
+    const auto block = models::BlockRegistry::Global().Create(var.type, options(mass_now));
+    std::vector<std::string> held = SplitParameters(*block, &c);
+    // The payload's rotational inertia next to a free body inertia: held at 0 (gravity only).
+    if (is_payload && !prismatic && body.mass_free) {
+      const std::string dm = c.instance + ".dM";
+      c.screened.erase(std::find(c.screened.begin(), c.screened.end(), dm));
+      c.refit.erase(std::find(c.refit.begin(), c.refit.end(), dm));
+      held.push_back(dm);
+    }
+    const std::string instance = c.instance, force = axis.force, reader = body.instance,
+                      mass = body.mass, type = var.type;
+    const std::vector<std::string> extra =
+        is_payload ? std::vector<std::string>{axis.position} : std::vector<std::string>{};
+    c.apply = [options, instance, force, reader, mass, type, extra, held](models::Model* m) {
+      // The body's inertia as the model has it now (the nominal fit's value in screening).
+      const auto b = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(type, options(m->Parameter(mass).value)));
+      m->InsertForReaders(force, instance, b, {reader}, extra);
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
 }  // namespace
 
 const std::vector<std::string>& AllEffects() {
   static const std::vector<std::string> all = {
-      "coulomb",     "asymmetric_friction", "stribeck", "viscous", "power_law_viscous",
-      "presliding",  "input_delay",         "deadzone", "ripple",  "sensor_offset",
-      "sensor_scale"};
+      "coulomb",    "asymmetric_friction", "stribeck",    "viscous", "power_law_viscous",
+      "presliding", "input_delay",         "deadzone",    "ripple",  "rotor_inertia",
+      "payload",    "sensor_offset",       "sensor_scale"};
   return all;
 }
 
@@ -432,6 +522,8 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     };
     for (const auto& kind : kFrictionKinds) {
       if (!wanted(kind.effect) || present(kind.type)) continue;
+      const bool lugre = std::string(kind.detail) == "lugre";
+      if (lugre && !options.lugre_presliding) continue;
       Candidate c;
       c.effect = kind.effect;
       c.detail = kind.detail;
@@ -444,10 +536,17 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       for (const auto& p : block->info().parameters) {
         const std::string q = c.instance + "." + p.name;
         c.parameters.push_back(q);
-        const bool repeats_viscous = std::string(kind.type) == "friction.stribeck" &&
-                                     p.name == "fv" && present("friction.viscous");
+        const bool repeats_viscous = (std::string(kind.type) == "friction.stribeck" &&
+                                      p.name == "fv" && present("friction.viscous")) ||
+                                     (lugre && p.name == "sigma2" && present("friction.viscous"));
+        // LuGre's micro-damping and viscous term: at sigma0 = 0, dz/dt = v, so both act as
+        // viscous friction there (not a presliding direction); tested by the viscous candidate.
+        const bool viscous_at_neutral = lugre && (p.name == "sigma1" || p.name == "sigma2");
         if (repeats_viscous) {
           held.push_back(q);
+        } else if (viscous_at_neutral) {
+          held.push_back(q);
+          c.refit.push_back(q);
         } else if (p.HasNeutral()) {
           c.screened.push_back(q);
           c.refit.push_back(q);
@@ -464,10 +563,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       };
       out.push_back(std::move(c));
     }
-    if (wanted("deadzone")) AddDeadzones(problem, axis, &taken, &deadzoned, &out);
-    if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
-    if (!wanted("input_delay")) continue;
-    for (const auto& input : axis.inputs) {
+    for (const auto& input : wanted("input_delay") ? axis.inputs : std::vector<std::string>{}) {
       if (!delayed_inputs.insert(input).second) continue;
       const auto& info = problem.built.inputs[problem.built.InputIndex(input)];
       BlockOptions o;
@@ -500,6 +596,9 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       };
       out.push_back(std::move(c));
     }
+    if (wanted("deadzone")) AddDeadzones(problem, axis, &taken, &deadzoned, &out);
+    if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
+    AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), &taken, &out);
   }
   for (const char* effect : {"sensor_offset", "sensor_scale"}) {
     if (wanted(effect)) AddSensors(problem, effect, &taken, &out);

@@ -110,6 +110,22 @@ models::Model MotorWithoutAngle() {
   return m;
 }
 
+// A rotational arm (a rigid inertia) driven by a torque input with viscous friction; its inertia
+// known (fixed) or free.
+models::Model Arm(bool inertia_free) {
+  models::Model m("arm");
+  m.AddInput("torque", "N m", "motor torque", -2.0, 2.0);
+  models::BlockOptions rotational;
+  rotational.words["motion"] = "rotational";
+  m.AddBlock("link", "mechanics.mass", rotational, {"torque"}, {});
+  m.AddBlock("friction", "friction.viscous", rotational, {"link.qd"}, {"-torque"});
+  m.SetParameter("link.mass", 0.05);
+  if (!inertia_free) m.Fix("link.mass");
+  m.SetParameter("friction.fv", 0.1);
+  m.AddOutput("link.q");
+  return m;
+}
+
 std::vector<Candidate> Enumerate(const models::Model& m, const std::vector<std::string>& effects) {
   CandidateOptions o;
   o.effects = effects;
@@ -124,7 +140,7 @@ std::vector<std::string> Names(const std::vector<Candidate>& cs) {
 
 TEST(Candidates, DefaultSetIsTheFrictionFamilyAndDelay) {
   EXPECT_EQ(DefaultEffects().size(), 7u);
-  EXPECT_EQ(AllEffects().size(), 11u);
+  EXPECT_EQ(AllEffects().size(), 13u);
   for (const auto& c : EnumerateCandidates(est::MakeProblem("slide", CommandSlide()))) {
     EXPECT_NE(c.effect, "deadzone");
     EXPECT_NE(c.effect, "ripple");
@@ -200,6 +216,46 @@ TEST(Candidates, SensorsOnEveryChannelAndTheFeedbackVariant) {
   }
 }
 
+TEST(Candidates, AddedLoadsOnRigidBodiesOnly) {
+  // The inertia free: an added inertia would repeat it; a payload's weight is new.
+  EXPECT_EQ(Names(Enumerate(ForceSlide(), {"rotor_inertia", "payload"})),
+            (std::vector<std::string>{
+                "payload (vertical, q up) on force force -> load, position load.q",
+                "payload (vertical, q down) on force force -> load, position load.q"}));
+  // CommandSlide's inertia is free too; fixed, the added inertia is proposed.
+  models::Model fixed = CommandSlide();
+  fixed.Fix("cart.mass");
+  EXPECT_EQ(Names(Enumerate(fixed, {"rotor_inertia"})),
+            std::vector<std::string>{"rotor_inertia (mechanics.added_inertia) on force f -> cart"});
+  EXPECT_TRUE(Enumerate(CommandSlide(), {"rotor_inertia"}).empty());
+  // Rotational: one payload with gravity on sin q, cos q; its inertia screened only when the
+  // arm's inertia is known.
+  const std::vector<Candidate> known = Enumerate(Arm(false), {"rotor_inertia", "payload"});
+  EXPECT_EQ(Names(known), (std::vector<std::string>{
+                              "rotor_inertia (mechanics.added_inertia) on force torque -> link",
+                              "payload (rotational) on force torque -> link, position link.q"}));
+  ASSERT_EQ(known.size(), 2u);
+  EXPECT_EQ(known[1].screened,
+            (std::vector<std::string>{"payload.g_s", "payload.g_c", "payload.dM"}));
+  const std::vector<Candidate> free = Enumerate(Arm(true), {"rotor_inertia", "payload"});
+  ASSERT_EQ(free.size(), 1u);
+  EXPECT_EQ(free[0].screened, (std::vector<std::string>{"payload.g_s", "payload.g_c"}));
+  // A DC motor integrates its own torque balance: no rigid body to load.
+  EXPECT_TRUE(Enumerate(MotorWithoutAngle(), {"rotor_inertia", "payload"}).empty());
+  // The added inertia divides the whole net force, friction included: at dM = M the
+  // acceleration halves.
+  models::Model m = fixed;
+  const std::vector<Candidate> ri = Enumerate(fixed, {"rotor_inertia"});
+  ASSERT_EQ(ri.size(), 1u);
+  ri[0].apply(&m);
+  m.SetParameter(ri[0].parameters[0], 1.0);  // cart.mass = 1 kg
+  const models::StateSpaceModel a = m.Build(), b = fixed.Build();
+  const Eigen::VectorXd x = Eigen::Vector2d(0.1, 0.3), u = Eigen::VectorXd::Constant(1, 2.0);
+  const int v = b.StateIndex("cart.qd");
+  EXPECT_NEAR(a.dynamics({x, u, a.ParameterValues()})[0][v],
+              0.5 * b.dynamics({x, u, b.ParameterValues()})[0][v], kNeutralTolerance);
+}
+
 // At neutral values: every state derivative and output equal to the nominal model's at random
 // points (the candidate's own states anywhere), so every simulation is the same.
 void ExpectNeutral(const models::Model& nominal, const std::vector<Candidate>& candidates) {
@@ -244,11 +300,35 @@ void ExpectNeutral(const models::Model& nominal, const std::vector<Candidate>& c
 }
 
 TEST(Candidates, NeutralValuesLeaveTheModelUnchanged) {
-  const std::vector<std::string> added = {"deadzone", "ripple", "sensor_offset", "sensor_scale"};
+  const std::vector<std::string> added = {"deadzone", "ripple",        "rotor_inertia",
+                                          "payload",  "sensor_offset", "sensor_scale"};
+  models::Model fixed = CommandSlide();
+  fixed.Fix("cart.mass");
+  ExpectNeutral(fixed, Enumerate(fixed, added));
+  ExpectNeutral(Arm(false), Enumerate(Arm(false), added));
+  ExpectNeutral(Arm(true), Enumerate(Arm(true), added));
   ExpectNeutral(ForceSlide(), Enumerate(ForceSlide(), added));
   ExpectNeutral(CommandSlide(), Enumerate(CommandSlide(), added));
   ExpectNeutral(ClosedLoop(), Enumerate(ClosedLoop(), added));
   ExpectNeutral(MotorWithoutAngle(), Enumerate(MotorWithoutAngle(), added));
+}
+
+TEST(Candidates, LugrePreslidingOnRequest) {
+  CandidateOptions o;
+  o.effects = {"presliding"};
+  const est::Problem slide = est::MakeProblem("slide", ForceSlide());
+  EXPECT_EQ(Names(EnumerateCandidates(slide, o)),
+            std::vector<std::string>{"presliding (dahl) on velocity load.qd -> force force"});
+  o.lugre_presliding = true;
+  const std::vector<Candidate> cs = EnumerateCandidates(slide, o);
+  ASSERT_EQ(cs.size(), 2u);
+  EXPECT_EQ(cs[1].detail, "lugre");
+  EXPECT_EQ(cs[1].screened, std::vector<std::string>{"presliding_2.sigma0"});
+  // sigma2 would repeat the slide's viscous friction: held at 0 in the re-fit too.
+  EXPECT_EQ(cs[1].refit,
+            (std::vector<std::string>{"presliding_2.sigma0", "presliding_2.sigma1",
+                                      "presliding_2.fc", "presliding_2.fs", "presliding_2.vs"}));
+  ExpectNeutral(ForceSlide(), cs);
 }
 
 // ---- Screening on synthetic data ----------------------------------------------------------------
@@ -319,8 +399,8 @@ est::SplitData TruthSplit(const Truth& truth, const std::string& name, est::Spli
 }
 
 // Nominal fit of CommandSlide on data from `truth`, then screening of every effect (re-fit of
-// the best only, to keep the test short).
-Diagnosis Screen(const Truth& truth) {
+// the best only, to keep the test short); with `lugre` the LuGre presliding variant too.
+Diagnosis Screen(const Truth& truth, bool lugre = false) {
   std::mt19937 rng(Seed());
   const std::vector<est::SplitData> splits = {
       TruthSplit(truth, "estimation", est::SplitRole::kEstimation, 0.0, &rng),
@@ -335,6 +415,7 @@ Diagnosis Screen(const Truth& truth) {
   EXPECT_TRUE(nominal.IsSolutionUsable());
   ScreeningOptions options;
   options.candidates.effects = AllEffects();
+  options.candidates.lugre_presliding = lugre;
   options.refit_top = 1;
   const Diagnosis d = ScreenAndRefit(problem, splits, nominal, options);
   std::cout << d.FullReport();
@@ -384,9 +465,20 @@ TEST(CandidatesScreening, SensorOffsetIsRankedFirst) {
 TEST(CandidatesScreening, DeadzoneIsRankedFirst) {
   Truth t;
   t.deadzone = 0.5;  // [V] of a 4.8 V peak command
-  const std::vector<double> b = ExpectFirst(Screen(t), "deadzone", "actuator.deadzone");
+  const Diagnosis d = Screen(t, true);
+  const std::vector<double> b = ExpectFirst(d, "deadzone", "actuator.deadzone");
   ASSERT_EQ(b.size(), 1u);
   EXPECT_NEAR(b[0], t.deadzone, kSizeTolerance * t.deadzone);
+  // At sigma0 = 0 LuGre's bristle is Dahl's (dz/dt = v): the two scores agree (the restricted
+  // solves are the same NLP; Ipopt's tolerance is the only difference).
+  double dahl = -1.0, lugre = -2.0;
+  for (const auto& c : d.screened) {
+    if (c.candidate.detail == "dahl") dahl = c.score;
+    if (c.candidate.detail == "lugre") lugre = c.score;
+  }
+  constexpr double kSameScore = 1e-3;  // relative
+  EXPECT_GT(dahl, 0.0);
+  EXPECT_NEAR(lugre, dahl, kSameScore * dahl);
 }
 
 TEST(CandidatesScreening, RippleOfTheRightPeriodIsRankedFirst) {
@@ -401,6 +493,84 @@ TEST(CandidatesScreening, RippleOfTheRightPeriodIsRankedFirst) {
   const std::vector<double> ab = ExpectFirst(Screen(t), "ripple", "period 0.0625 m");
   ASSERT_EQ(ab.size(), 2u);
   EXPECT_NEAR(std::hypot(ab[0], ab[1]), t.ripple, kSizeTolerance * t.ripple);
+}
+
+// The truth for the payload: the arm of Arm() (inertia 0.05 kg m^2, known; viscous friction
+// 0.1 N m s/rad) carrying a payload of weight torque 0.2 sin(q + 0.5) N m and inertia
+// 0.02 kg m^2, driven by 0.3 N m plus a small multisine so that it turns over (about 3 rad/s,
+// five turns in 10 s), its angle and speed measured.
+constexpr double kArmInertia = 0.05;      // [kg m^2]
+constexpr double kArmViscous = 0.1;       // [N m s/rad]
+constexpr double kPayloadWeight = 0.2;    // [N m], m g l
+constexpr double kPayloadPhase = 0.5;     // [rad]
+constexpr double kPayloadInertia = 0.02;  // [kg m^2]
+
+est::SplitData ArmSplit(const std::string& name, est::SplitRole role, double phase,
+                        std::mt19937* rng) {
+  est::Experiment e;
+  e.name = name;
+  e.dt = kDt;
+  e.u.resize(kSamples, 1);
+  e.y.resize(kSamples, 2);
+  std::normal_distribution<double> angle_noise(0.0, 1e-3), speed_noise(0.0, 0.01);
+  double q = 0.0, v = 0.0;
+  const double h = kDt / kSubsteps;
+  for (int k = 0; k < kSamples; ++k) {
+    const double u = 0.3 + 0.05 * Command(k * kDt, phase);
+    e.u(k, 0) = u;
+    e.y(k, 0) = q + angle_noise(*rng);  // outputs link.q, link.qd
+    e.y(k, 1) = v + speed_noise(*rng);
+    auto a = [&](double qq, double vv) {
+      return (u - kArmViscous * vv - kPayloadWeight * std::sin(qq + kPayloadPhase)) /
+             (kArmInertia + kPayloadInertia);
+    };
+    for (int s = 0; s < kSubsteps; ++s) {
+      const double k1q = v, k1v = a(q, v);
+      const double k2q = v + 0.5 * h * k1v, k2v = a(q + 0.5 * h * k1q, v + 0.5 * h * k1v);
+      const double k3q = v + 0.5 * h * k2v, k3v = a(q + 0.5 * h * k2q, v + 0.5 * h * k2v);
+      const double k4q = v + h * k3v, k4v = a(q + h * k3q, v + h * k3v);
+      q += h / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q);
+      v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    }
+  }
+  return est::MakeSplit(name, role, e, Eigen::VectorXd::Zero(2));
+}
+
+TEST(CandidatesScreening, PayloadIsRankedFirstAheadOfItsGravityAlone) {
+  std::mt19937 rng(Seed());
+  const std::vector<est::SplitData> splits = {
+      ArmSplit("estimation", est::SplitRole::kEstimation, 0.0, &rng),
+      ArmSplit("validation", est::SplitRole::kValidation, 0.7, &rng)};
+  models::Model m = Arm(false);
+  m.AddOutput("link.qd");
+  est::EstimationSpec spec;
+  spec.step.substeps = 4;
+  const est::Problem problem = est::MakeProblem("arm", m, spec);
+  const est::FitResult nominal = est::Fit(problem, splits);
+  std::cout << nominal.BriefReport() << "\n";
+  ASSERT_TRUE(nominal.IsSolutionUsable());
+  ScreeningOptions options;
+  options.candidates.effects = AllEffects();
+  options.refit_top = 1;
+  const Diagnosis d = ScreenAndRefit(problem, splits, nominal, options);
+  std::cout << d.FullReport();
+  ASSERT_GE(d.screened.size(), 2u);
+  EXPECT_EQ(d.screened[0].candidate.effect, "payload");
+  EXPECT_LT(d.screened[0].p_value, kSignificance);
+  // Its weight alone is a ripple of period 2 pi: the runner-up, below by the inertia's share.
+  EXPECT_EQ(d.screened[1].candidate.Name(),
+            "ripple (period 6.28319 rad) on position link.q -> "
+            "force torque");
+  EXPECT_GT(d.screened[0].score, d.screened[1].score);
+  ASSERT_FALSE(d.refits.empty());
+  const RefitResult& r = d.refits[0];
+  EXPECT_TRUE(r.ok) << r.failure;
+  EXPECT_EQ(r.effect, "payload");
+  EXPECT_LT(r.bic, d.nominal_bic);
+  ASSERT_EQ(r.parameters.size(), 3u);  // g_s, g_c, dM
+  EXPECT_NEAR(std::hypot(r.parameters[0].value, r.parameters[1].value), kPayloadWeight,
+              kSizeTolerance * kPayloadWeight);
+  EXPECT_NEAR(r.parameters[2].value, kPayloadInertia, kSizeTolerance * kPayloadInertia);
 }
 
 }  // namespace

@@ -45,6 +45,19 @@
 //                                               coincides with viscous friction), freed to re-fit
 //   presliding           friction.dahl          sigma0 free (neutral 0); fc held at nominal;
 //                                               detail "dahl"
+//   presliding           friction.lugre         with CandidateOptions::lugre_presliding only;
+//                                               detail "lugre". sigma0 screened (neutral 0);
+//                                               sigma1 held at 0 for the test, freed to re-fit;
+//                                               sigma2 likewise, but held at 0 in the re-fit too
+//                                               when friction.viscous is on the axis; fc, fs, vs
+//                                               held at nominal (seed 002's eSEA values), freed
+//                                               to re-fit. At sigma0 = 0 the bristle integrates
+//                                               the position (dz/dt = v), so sigma1 and sigma2
+//                                               act as viscous friction there and the score of
+//                                               sigma0 equals Dahl's exactly: the score test
+//                                               cannot tell the two apart, only the re-fits can
+//                                               (hence opt-in: in the default set it would
+//                                               repeat Dahl's score)
 // each reading v and writing "-F" (or "+F", above), with the block's `motion` option set from v's
 // unit; and, for every external input that no block adds to and whose value changes dv/dt at the
 // test point (a model input that feeds the axis directly), input_delay: Model::InsertOnSignal of
@@ -58,7 +71,7 @@
 // Candidate::refit what a re-fit frees. Everything in `parameters` outside `refit` stays at the
 // value Augment gave it.
 //
-// ---- Actuator, position and sensor effects (models/sensors.h, friction.h) ---------------------
+// ---- Actuator, position, load and sensor effects (models/sensors.h, friction.h, loads.h) ------
 //   deadzone       actuator.deadzone  b free (neutral 0, the exact pass-through; lower bound 0);
 //                                     smoothing eps = 1e-3 of the command's typical magnitude.
 //                  In series on an actuator command, Model::InsertForReaders: (a) every input of
@@ -86,6 +99,26 @@
 //                  position (which the diagnosis does not compute yet). A ripple seen over a short
 //                  stroke looks to first order like a constant force (the axis lingers at its
 //                  turning points): screen it on data that travel several periods.
+//   rotor_inertia  mechanics.added_inertia  dM free (neutral 0, >= 0): the body reads
+//                  F / (1 + dM / M) (models/loads.h: an extra inertia enters as a scaling of the
+//                  whole net force at its one reader; writing -dM dv/dt into F is an algebraic
+//                  loop, scaling one contribution of the sum is wrong). Model::InsertForReaders on
+//                  F for the rigid body only, on axes whose velocity state is owned by a
+//                  mechanics.mass that reads F (not drive.two_mass, drive.dc_motor: their torque
+//                  balances are inside the block). M (option axis_inertia) is the body's inertia
+//                  parameter's value when the candidate is applied (the nominal fit's in
+//                  screening). Proposed only when that parameter is fixed: next to a free inertia
+//                  dM is the same unknown. Detail "mechanics.added_inertia", attachment "force F ->
+//                  <body>".
+//   payload        mechanics.payload  on the same bodies, reading the axis position too:
+//                  rotational: (F - g_s sin q - g_c cos q) / (1 + dM / M), g_s, g_c, dM free
+//                  (neutral 0; dM held at 0 when the body's inertia is free, as above), detail
+//                  "rotational"; its gravity part equals a ripple of period 2 pi, the inertia
+//                  tells them apart. Prismatic: (F + m g_q) / (1 + m / M), m free (neutral 0),
+//                  one candidate per direction of the axis, detail "vertical, q up" (g_q = -9.81)
+//                  and "vertical, q down" (+9.81): the score test sees both alike (a sign), the
+//                  re-fit keeps the one with m >= 0 interior. A horizontal payload is a
+//                  rotor_inertia. Attachment "force F -> <body>, position q".
 //   sensor_offset  sensor.offset      b free (neutral 0): y_meas = y + b
 //   sensor_scale   sensor.scale       s free (neutral 0): y_meas = (1 + s) y
 //                  On every output channel (Model::Outputs), with the channel's unit and typical
@@ -109,8 +142,7 @@
 // been checked on synthetic data only (tests/diagnosis/candidates_test.cc), not yet on the EMPS and
 // KUKA records the default set is tested on.
 //
-// Not yet proposed here: backlash, elasticity, payload, rotor_inertia, leakage, polytropic_index,
-// LuGre presliding, structural choices.
+// Not yet proposed here: backlash, elasticity, leakage, polytropic_index, structural choices.
 //
 // Failure behaviour. An unknown name in CandidateOptions::effects throws std::invalid_argument
 // with a did-you-mean; so does a ripple period that is not finite and > 0. A model without an axis
@@ -130,10 +162,10 @@ namespace graybox::diagnosis {
 struct Candidate {
   /// The effect's name from issue 10's list: "coulomb", "asymmetric_friction", "stribeck",
   /// "viscous", "power_law_viscous", "presliding", "input_delay", "deadzone", "ripple",
-  /// "sensor_offset", "sensor_scale".
+  /// "rotor_inertia", "payload", "sensor_offset", "sensor_scale".
   std::string effect;
-  /// The variant or block: "dahl" for presliding, "period 0.0625 m" for ripple, "sensor.offset,
-  /// output" (or ", output and feedback") for the sensors, else the block type
+  /// The variant or block: "dahl" or "lugre" for presliding, "period 0.0625 m" for ripple,
+  /// "sensor.offset, output" (or ", output and feedback") for the sensors, else the block type
   /// ("friction.coulomb").
   std::string detail;
   /// Where it attaches: "velocity load.qd -> force force", "input u", "command nu -> drive",
@@ -162,13 +194,16 @@ struct CandidateOptions {
   /// position (the pole or slot pitch, a screw lead, a gear-tooth pitch, or the peaks of the
   /// residual spectrum against position); empty: the defaults of the file comment. Each > 0.
   std::vector<double> ripple_periods = {};
+  /// Also propose the LuGre variant of presliding (detail "lugre"; see the file comment).
+  bool lugre_presliding = false;
   /// Throws std::invalid_argument for an unknown effect name (with a did-you-mean) or a period
   /// that is not finite and > 0.
   void Validate() const;
 };
 
-/// Every effect this layer can propose, in enumeration order: the friction family and
-/// input_delay, then deadzone, ripple, sensor_offset, sensor_scale.
+/// Every effect this layer can propose, in enumeration order: per axis the friction family,
+/// input_delay, deadzone, ripple, rotor_inertia, payload; then per output channel sensor_offset,
+/// sensor_scale.
 const std::vector<std::string>& AllEffects();
 /// What an empty CandidateOptions::effects proposes: coulomb, asymmetric_friction, stribeck,
 /// viscous, power_law_viscous, presliding, input_delay (see "Default set" in the file comment).

@@ -11,6 +11,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterMechanicsBlocks(registry);
   RegisterSensorBlocks(registry);
   RegisterLoadBlocks(registry);
+  RegisterChamberEffectBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

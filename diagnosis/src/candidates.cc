@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include "graybox/models/chamber_effects.h"
 #include "graybox/models/friction.h"
 #include "graybox/models/loads.h"
 #include "graybox/models/mechanics.h"
@@ -394,13 +395,74 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
   }
 }
 
+// leakage and polytropic_index on every pneumatic.chamber (file comment).
+void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool polytropic,
+                       std::set<std::string>* taken, std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.type != "pneumatic.chamber" || b.inputs.size() != 3) continue;
+    const std::string pressure = b.instance + ".p", mdot = b.inputs[0];
+    const std::string exponent = b.instance + ".polytropic_exponent";
+    const std::string temperature = b.instance + ".temperature";
+    if (leakage) {
+      Candidate c;
+      c.effect = "leakage";
+      c.detail = models::kChamberLeak;
+      c.attachment = "chamber " + b.instance + " (flow " + mdot + ")";
+      c.instance = FreshInstance(problem.model, "leakage", taken);
+      const auto block = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(models::kChamberLeak));
+      const std::vector<std::string> held = SplitParameters(*block, &c);
+      const std::string instance = c.instance;
+      c.apply = [block, instance, pressure, mdot, held](models::Model* m) {
+        m->Augment(instance, block, {pressure}, {"-" + mdot});
+        for (const auto& q : held) m->Fix(q);
+      };
+      out->push_back(std::move(c));
+    }
+    // A free exponent already is this unknown.
+    if (polytropic && !built.parameters[built.ParameterIndex(exponent)].free) {
+      Candidate c;
+      c.effect = "polytropic_index";
+      c.detail = models::kPolytropicCorrection;
+      c.attachment = "chamber " + b.instance + " (flow " + mdot + ")";
+      c.instance = FreshInstance(problem.model, "polytropic_index", taken);
+      const auto block = models::BlockRegistry::Global().Create(models::kPolytropicCorrection);
+      const std::vector<std::string> held = SplitParameters(*block, &c);
+      const std::string instance = c.instance, chamber = b.instance, rate = b.inputs[2];
+      c.apply = [instance, chamber, pressure, mdot, rate, temperature, held](models::Model* m) {
+        // The chamber's temperature as the model has it now. The gas constant is the chamber
+        // block's option, which the model does not expose: air, the chamber's default.
+        BlockOptions o;
+        o.numbers["temperature"] = {m->Parameter(temperature).value};
+        const auto block = std::shared_ptr<const models::Block>(
+            models::BlockRegistry::Global().Create(models::kPolytropicCorrection, o));
+        m->InsertForReaders(mdot, instance, block, {chamber}, {pressure, rate});
+        for (const auto& q : held) m->Fix(q);
+      };
+      out->push_back(std::move(c));
+    }
+  }
+}
+
 }  // namespace
 
 const std::vector<std::string>& AllEffects() {
-  static const std::vector<std::string> all = {
-      "coulomb",    "asymmetric_friction", "stribeck",    "viscous", "power_law_viscous",
-      "presliding", "input_delay",         "deadzone",    "ripple",  "rotor_inertia",
-      "payload",    "sensor_offset",       "sensor_scale"};
+  static const std::vector<std::string> all = {"coulomb",
+                                               "asymmetric_friction",
+                                               "stribeck",
+                                               "viscous",
+                                               "power_law_viscous",
+                                               "presliding",
+                                               "input_delay",
+                                               "deadzone",
+                                               "ripple",
+                                               "rotor_inertia",
+                                               "payload",
+                                               "leakage",
+                                               "polytropic_index",
+                                               "sensor_offset",
+                                               "sensor_scale"};
   return all;
 }
 
@@ -600,6 +662,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
     AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), &taken, &out);
   }
+  AddChamberEffects(problem, wanted("leakage"), wanted("polytropic_index"), &taken, &out);
   for (const char* effect : {"sensor_offset", "sensor_scale"}) {
     if (wanted(effect)) AddSensors(problem, effect, &taken, &out);
   }

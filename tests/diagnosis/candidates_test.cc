@@ -140,7 +140,7 @@ std::vector<std::string> Names(const std::vector<Candidate>& cs) {
 
 TEST(Candidates, DefaultSetIsTheFrictionFamilyAndDelay) {
   EXPECT_EQ(DefaultEffects().size(), 7u);
-  EXPECT_EQ(AllEffects().size(), 13u);
+  EXPECT_EQ(AllEffects().size(), 15u);
   for (const auto& c : EnumerateCandidates(est::MakeProblem("slide", CommandSlide()))) {
     EXPECT_NE(c.effect, "deadzone");
     EXPECT_NE(c.effect, "ripple");
@@ -329,6 +329,49 @@ TEST(Candidates, LugrePreslidingOnRequest) {
             (std::vector<std::string>{"presliding_2.sigma0", "presliding_2.sigma1",
                                       "presliding_2.fc", "presliding_2.fs", "presliding_2.vs"}));
   ExpectNeutral(ForceSlide(), cs);
+}
+
+// A pneumatic chamber filled and emptied through a valve's two ports, its volume driven as data.
+models::Model Chamber(bool exponent_fixed) {
+  models::Model m("chamber");
+  m.AddInput("area_supply", "mm^2", "supply port area", 0.0, 2.0);
+  m.AddInput("area_exhaust", "mm^2", "exhaust port area", 0.0, 2.0);
+  m.AddInput("volume", "mm^3", "chamber volume", 2.0e4, 4.0e4);
+  m.AddInput("volume_rate", "mm^3/s", "chamber volume rate", -1.0e5, 1.0e5);
+  m.AddBlock("ports", "pneumatic.ports", {}, {"chamber.p", "area_supply", "area_exhaust"},
+             {"mdot", "", ""});
+  m.AddBlock("chamber", "pneumatic.chamber", {}, {"mdot", "volume", "volume_rate"}, {});
+  if (exponent_fixed) m.Fix("chamber.polytropic_exponent");
+  m.AddOutput("chamber.p");
+  return m;
+}
+
+TEST(Candidates, ChamberEffects) {
+  const std::vector<std::string> effects = {"leakage", "polytropic_index"};
+  EXPECT_EQ(Names(Enumerate(Chamber(false), effects)),
+            std::vector<std::string>{"leakage (pneumatic.leak) on chamber chamber (flow mdot)"});
+  const std::vector<Candidate> cs = Enumerate(Chamber(true), effects);
+  EXPECT_EQ(Names(cs),
+            (std::vector<std::string>{
+                "leakage (pneumatic.leak) on chamber chamber (flow mdot)",
+                "polytropic_index (pneumatic.polytropic_correction) on chamber chamber (flow "
+                "mdot)"}));
+  EXPECT_TRUE(Enumerate(ForceSlide(), effects).empty());
+  ExpectNeutral(Chamber(true), cs);
+  // Away from neutral: e scales the whole pressure rate by 1 + e (the exponent n (1 + e)).
+  ASSERT_EQ(cs.size(), 2u);
+  models::Model m = Chamber(true);
+  cs[1].apply(&m);
+  constexpr double kE = 0.25;
+  m.SetParameter(cs[1].parameters[0], kE);
+  const models::StateSpaceModel a = m.Build(), b = Chamber(true).Build();
+  const Eigen::VectorXd x = Eigen::VectorXd::Constant(1, 350.0);
+  const Eigen::Vector4d u(0.8, 0.3, 3.0e4, 5.0e4);
+  const double pdot = b.dynamics({x, u, b.ParameterValues()})[0][0];
+  // Rounding of a sum of two terms of ~1e4 kPa/s.
+  constexpr double kRelative = 1e-12;
+  EXPECT_NEAR(a.dynamics({x, u, a.ParameterValues()})[0][0], (1.0 + kE) * pdot,
+              kRelative * std::fabs(pdot));
 }
 
 // ---- Screening on synthetic data ----------------------------------------------------------------

@@ -119,6 +119,19 @@
 //                  and "vertical, q down" (+9.81): the score test sees both alike (a sign), the
 //                  re-fit keeps the one with m >= 0 interior. A horizontal payload is a
 //                  rotor_inertia. Attachment "force F -> <body>, position q".
+//   leakage        pneumatic.leak     G free (neutral 0): a laminar leak G (p - p_atm) out of
+//                  every pneumatic.chamber: reads the chamber's pressure state, writes "-mdot" on
+//                  the chamber's net-inflow signal (its first input). Attachment "chamber <c>
+//                  (flow <mdot>)", detail "pneumatic.leak" (models/chamber_effects.h).
+//   polytropic_index  pneumatic.polytropic_correction  e free (neutral 0): the chamber's exponent
+//                  becomes n (1 + e). The chamber's pressure is its own state, so the change acts
+//                  on its inflow, Model::InsertForReaders of (1 + e) mdot - e p Vdot / (R T) on the
+//                  mdot signal for the chamber only (also reading its pressure and volume rate),
+//                  with T the chamber's temperature parameter's value when applied and R air's.
+//                  Proposed only when the chamber's polytropic_exponent is fixed: a free one is
+//                  this unknown already. Freeing the fixed parameter itself at its nominal value
+//                  would be simpler, but the score test inserts the candidate's variables after
+//                  the nominal free parameters (screening.h), which holds for new parameters only.
 //   sensor_offset  sensor.offset      b free (neutral 0): y_meas = y + b
 //   sensor_scale   sensor.scale       s free (neutral 0): y_meas = (1 + s) y
 //                  On every output channel (Model::Outputs), with the channel's unit and typical
@@ -142,11 +155,14 @@
 // been checked on synthetic data only (tests/diagnosis/candidates_test.cc), not yet on the EMPS and
 // KUKA records the default set is tested on.
 //
-// Not yet proposed here: backlash, elasticity, leakage, polytropic_index, structural choices.
+// Not yet proposed here: backlash and elasticity (a transmission's deflection is internal to
+// drive.two_mass, so a backlash needs the block replaced by its "backlash" form, whose new
+// parameter would sit among the nominal ones; a rigid axis has no neutral elastic form: the rigid
+// limit is an infinite stiffness), and structural choices beyond the variants above.
 //
 // Failure behaviour. An unknown name in CandidateOptions::effects throws std::invalid_argument
-// with a did-you-mean; so does a ripple period that is not finite and > 0. A model without an axis
-// gives no candidates (not an error).
+// with a did-you-mean; so does a ripple period that is not finite and > 0. A model without an
+// axis, chamber or output gives no candidates (not an error).
 #pragma once
 
 #include <functional>
@@ -162,7 +178,7 @@ namespace graybox::diagnosis {
 struct Candidate {
   /// The effect's name from issue 10's list: "coulomb", "asymmetric_friction", "stribeck",
   /// "viscous", "power_law_viscous", "presliding", "input_delay", "deadzone", "ripple",
-  /// "rotor_inertia", "payload", "sensor_offset", "sensor_scale".
+  /// "rotor_inertia", "payload", "leakage", "polytropic_index", "sensor_offset", "sensor_scale".
   std::string effect;
   /// The variant or block: "dahl" or "lugre" for presliding, "period 0.0625 m" for ripple,
   /// "sensor.offset, output" (or ", output and feedback") for the sensors, else the block type
@@ -202,8 +218,8 @@ struct CandidateOptions {
 };
 
 /// Every effect this layer can propose, in enumeration order: per axis the friction family,
-/// input_delay, deadzone, ripple, rotor_inertia, payload; then per output channel sensor_offset,
-/// sensor_scale.
+/// input_delay, deadzone, ripple, rotor_inertia, payload; per chamber leakage, polytropic_index;
+/// then per output channel sensor_offset, sensor_scale.
 const std::vector<std::string>& AllEffects();
 /// What an empty CandidateOptions::effects proposes: coulomb, asymmetric_friction, stribeck,
 /// viscous, power_law_viscous, presliding, input_delay (see "Default set" in the file comment).

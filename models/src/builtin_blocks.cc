@@ -12,6 +12,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterSensorBlocks(registry);
   RegisterLoadBlocks(registry);
   RegisterChamberEffectBlocks(registry);
+  RegisterTransmissionEffectBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

@@ -22,6 +22,7 @@
 #include "graybox/models/drives.h"
 #include "graybox/models/kuka_kr300.h"
 #include "graybox/models/model.h"
+#include "graybox/models/transmission_effects.h"
 #include "test_util.h"
 
 namespace graybox::models {
@@ -537,6 +538,47 @@ TEST(Drives, DerivativesMatchFiniteDifferencesInScaledCoordinates) {
   motor.numbers["angle_state"] = {0};
   motor.numbers["load_input"] = {1};
   testing::ExpectBlockDerivativesMatch(*Make(kDcMotorDrive, motor), testing::TestSeed());
+}
+
+// transmission.backlash added to a joint without backlash equals the joint with backlash.
+TEST(BacklashCorrection, TurnsTheJointIntoItsBacklashForm) {
+  auto joint = [](bool backlash) {
+    Model m("joint");
+    m.AddInput("tau", "N m", "motor torque", -0.4, 0.4);
+    m.AddInput("load", "N m", "load torque", -0.4, 0.4);
+    BlockOptions o;
+    if (backlash) o.numbers["backlash"] = {1};
+    m.AddBlock("joint", kTwoMassDrive, o, {"tau", "load"}, {"", "", "", "", ""});
+    m.SetParameter("joint.d", 0.02);
+    m.AddOutput("joint.q_l");
+    return m;
+  };
+  Model with = joint(true);
+  with.SetParameter("joint.b", 0.01);
+  Model added = joint(false);
+  BlockOptions c;
+  c.numbers["stiffness"] = {added.Parameter("joint.Ke").value};
+  c.numbers["damping"] = {0.02};
+  added.Augment("backlash", kBacklashCorrection, c,
+                {"joint.q_m", "joint.q_l", "joint.qd_m", "joint.qd_l"}, {"-tau", "load"});
+  EXPECT_EQ(added.Parameter("backlash.b").value, 0.0);  // neutral
+  const StateSpaceModel base = joint(false).Build();
+  const StateSpaceModel neutral = added.Build();
+  added.SetParameter("backlash.b", 0.01);
+  const StateSpaceModel a = added.Build(), b = with.Build();
+  // Inside the gap, at its edge and beyond; moving in both directions.
+  constexpr double kRounding = 1e-12;  // the same terms summed in another order
+  for (const double delta : {0.0, 0.004, 0.0101, -0.03}) {
+    const Eigen::Vector4d x(0.1 + delta, 1.5, 0.1, -0.7);
+    const Eigen::Vector2d u(0.2, -0.1);
+    const Eigen::VectorXd fa = a.dynamics({x, u, a.ParameterValues()})[0];
+    const Eigen::VectorXd fb = b.dynamics({x, u, b.ParameterValues()})[0];
+    EXPECT_LE((fa - fb).lpNorm<Eigen::Infinity>(), kRounding * fb.lpNorm<Eigen::Infinity>())
+        << "delta " << delta;
+    const Eigen::VectorXd f0 = base.dynamics({x, u, base.ParameterValues()})[0];
+    const Eigen::VectorXd fn = neutral.dynamics({x, u, neutral.ParameterValues()})[0];
+    EXPECT_EQ(fn, f0) << "delta " << delta;  // b = 0: exactly the joint without backlash
+  }
 }
 
 }  // namespace

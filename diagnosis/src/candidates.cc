@@ -13,10 +13,12 @@
 #include <Eigen/Core>
 
 #include "graybox/models/chamber_effects.h"
+#include "graybox/models/drives.h"
 #include "graybox/models/friction.h"
 #include "graybox/models/loads.h"
 #include "graybox/models/mechanics.h"
 #include "graybox/models/sensors.h"
+#include "graybox/models/transmission_effects.h"
 
 namespace graybox::diagnosis {
 namespace {
@@ -445,6 +447,49 @@ void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool po
   }
 }
 
+// backlash on every drive.two_mass without one (file comment).
+void AddBacklash(const estimators::Problem& problem, std::set<std::string>* taken,
+                 std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.type != models::kTwoMassDrive || b.inputs.size() != 2 || b.inputs[0] == b.inputs[1]) {
+      continue;
+    }
+    bool has_backlash = false;
+    for (const auto& p : built.parameters)
+      has_backlash = has_backlash || p.name == b.instance + ".b";
+    if (has_backlash) continue;
+    const std::string joint = b.instance, motor = b.inputs[0], load = b.inputs[1];
+    Candidate c;
+    c.effect = "backlash";
+    c.detail = models::kBacklashCorrection;
+    c.attachment = "joint " + joint + " (torques " + motor + ", " + load + ")";
+    c.instance = FreshInstance(problem.model, "backlash", taken);
+    auto options = [](double ke, double d) {
+      BlockOptions o;
+      o.numbers["stiffness"] = {ke};
+      o.numbers["damping"] = {d};
+      return o;
+    };
+    const auto block = models::BlockRegistry::Global().Create(
+        models::kBacklashCorrection,
+        options(built.parameters[built.ParameterIndex(joint + ".Ke")].value,
+                built.parameters[built.ParameterIndex(joint + ".d")].value));
+    const std::vector<std::string> held = SplitParameters(*block, &c);
+    const std::string instance = c.instance;
+    c.apply = [options, instance, joint, motor, load, held](models::Model* m) {
+      // The joint's stiffness and damping as the model has them now (transmission_effects.h).
+      const auto blk = std::shared_ptr<const models::Block>(models::BlockRegistry::Global().Create(
+          models::kBacklashCorrection,
+          options(m->Parameter(joint + ".Ke").value, m->Parameter(joint + ".d").value)));
+      m->Augment(instance, blk, {joint + ".q_m", joint + ".q_l", joint + ".qd_m", joint + ".qd_l"},
+                 {"-" + motor, load});
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
 }  // namespace
 
 const std::vector<std::string>& AllEffects() {
@@ -459,6 +504,7 @@ const std::vector<std::string>& AllEffects() {
                                                "ripple",
                                                "rotor_inertia",
                                                "payload",
+                                               "backlash",
                                                "leakage",
                                                "polytropic_index",
                                                "sensor_offset",
@@ -662,6 +708,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
     AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), &taken, &out);
   }
+  if (wanted("backlash")) AddBacklash(problem, &taken, &out);
   AddChamberEffects(problem, wanted("leakage"), wanted("polytropic_index"), &taken, &out);
   for (const char* effect : {"sensor_offset", "sensor_scale"}) {
     if (wanted(effect)) AddSensors(problem, effect, &taken, &out);

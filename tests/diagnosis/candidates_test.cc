@@ -140,7 +140,7 @@ std::vector<std::string> Names(const std::vector<Candidate>& cs) {
 
 TEST(Candidates, DefaultSetIsTheFrictionFamilyAndDelay) {
   EXPECT_EQ(DefaultEffects().size(), 7u);
-  EXPECT_EQ(AllEffects().size(), 15u);
+  EXPECT_EQ(AllEffects().size(), 16u);
   for (const auto& c : EnumerateCandidates(est::MakeProblem("slide", CommandSlide()))) {
     EXPECT_NE(c.effect, "deadzone");
     EXPECT_NE(c.effect, "ripple");
@@ -372,6 +372,46 @@ TEST(Candidates, ChamberEffects) {
   constexpr double kRelative = 1e-12;
   EXPECT_NEAR(a.dynamics({x, u, a.ParameterValues()})[0][0], (1.0 + kE) * pdot,
               kRelative * std::fabs(pdot));
+}
+
+// An elastic joint (drive.two_mass, no backlash) driven by a motor torque, its link measured.
+models::Model ElasticJoint(bool backlash) {
+  models::Model m("joint");
+  m.AddInput("tau", "N m", "motor torque", -0.4, 0.4);
+  m.AddInput("tau_ext", "N m", "load torque", -0.4, 0.4);
+  models::BlockOptions o;
+  if (backlash) o.numbers["backlash"] = {1};
+  m.AddBlock("joint", "drive.two_mass", o, {"tau", "tau_ext"}, {"", "", "", "", ""});
+  m.SetParameter("joint.d", 0.02);
+  m.AddOutput("joint.q_l");
+  return m;
+}
+
+TEST(Candidates, BacklashOnJointsWithoutOne) {
+  const std::vector<Candidate> cs = Enumerate(ElasticJoint(false), {"backlash"});
+  EXPECT_EQ(Names(cs), std::vector<std::string>{"backlash (transmission.backlash) on joint "
+                                                "joint (torques tau, tau_ext)"});
+  EXPECT_TRUE(Enumerate(ElasticJoint(true), {"backlash"}).empty());
+  // Where friction acts (motor or load side) is the choice of axis: both are proposed.
+  EXPECT_EQ(Names(Enumerate(ElasticJoint(false), {"viscous"})),
+            (std::vector<std::string>{
+                "viscous (friction.viscous) on velocity joint.qd_m -> force tau",
+                "viscous (friction.viscous) on velocity joint.qd_l -> force tau_ext"}));
+  EXPECT_TRUE(Enumerate(ForceSlide(), {"backlash"}).empty());
+  ExpectNeutral(ElasticJoint(false), cs);
+  // Applied and opened, it is the joint's backlash form (models/drives_test.cc checks the block).
+  ASSERT_EQ(cs.size(), 1u);
+  models::Model m = ElasticJoint(false);
+  cs[0].apply(&m);
+  m.SetParameter(cs[0].parameters[0], 0.01);
+  models::Model with = ElasticJoint(true);
+  with.SetParameter("joint.b", 0.01);
+  const models::StateSpaceModel a = m.Build(), b = with.Build();
+  const Eigen::Vector4d x(0.104, 1.5, 0.1, -0.7);
+  const Eigen::Vector2d u(0.2, -0.1);
+  const Eigen::VectorXd fa = a.dynamics({x, u, a.ParameterValues()})[0];
+  const Eigen::VectorXd fb = b.dynamics({x, u, b.ParameterValues()})[0];
+  EXPECT_LE((fa - fb).lpNorm<Eigen::Infinity>(), kNeutralTolerance * fb.lpNorm<Eigen::Infinity>());
 }
 
 // ---- Screening on synthetic data ----------------------------------------------------------------

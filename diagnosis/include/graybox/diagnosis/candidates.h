@@ -119,6 +119,15 @@
 //                  and "vertical, q down" (+9.81): the score test sees both alike (a sign), the
 //                  re-fit keeps the one with m >= 0 interior. A horizontal payload is a
 //                  rotor_inertia. Attachment "force F -> <body>, position q".
+//   backlash       transmission.backlash  b free (neutral 0, >= 0): on every drive.two_mass
+//                  that has no backlash parameter (and reads two distinct torque signals): reads
+//                  the joint's q_m, q_l, qd_m, qd_l, writes the joint-torque change
+//                  Ke (DZ(delta) - delta) + d (DZ'(delta) - 1) d(delta)/dt as "-tau_m" and
+//                  "+tau_ext" on the joint's torque inputs, which makes the joint its backlash
+//                  form exactly (models/transmission_effects.h); Ke, d are the joint's values when
+//                  applied (the nominal fit's in screening; a re-fit that moves them keeps these).
+//                  The joint's own tau_s output does not include the change. Attachment "joint
+//                  <j> (torques <tau_m>, <tau_ext>)".
 //   leakage        pneumatic.leak     G free (neutral 0): a laminar leak G (p - p_atm) out of
 //                  every pneumatic.chamber: reads the chamber's pressure state, writes "-mdot" on
 //                  the chamber's net-inflow signal (its first input). Attachment "chamber <c>
@@ -155,10 +164,14 @@
 // been checked on synthetic data only (tests/diagnosis/candidates_test.cc), not yet on the EMPS and
 // KUKA records the default set is tested on.
 //
-// Not yet proposed here: backlash and elasticity (a transmission's deflection is internal to
-// drive.two_mass, so a backlash needs the block replaced by its "backlash" form, whose new
-// parameter would sit among the nominal ones; a rigid axis has no neutral elastic form: the rigid
-// limit is an infinite stiffness), and structural choices beyond the variants above.
+// Not yet proposed here: elasticity (rigid -> two-mass). A rigid axis has no neutral elastic form
+// the score test could start from: the rigid limit is an infinite stiffness, and a compliance
+// c = 1/Ke at 0 is a singular perturbation (the joint torque becomes an algebraic variable), which
+// the ODE models cannot hold; it needs a structural re-fit without a score test. Structural
+// choices are the variants above (sensor with or without feedback, payload direction, presliding
+// Dahl or LuGre, ripple period); friction on the motor or the load side of a drive.two_mass is
+// the friction family on each of its two axes (qd_m and qd_l are separate axes, each with its own
+// candidates, the attachment naming the side).
 //
 // Failure behaviour. An unknown name in CandidateOptions::effects throws std::invalid_argument
 // with a did-you-mean; so does a ripple period that is not finite and > 0. A model without an

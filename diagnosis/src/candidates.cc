@@ -117,7 +117,7 @@ std::string FreshInstance(const models::Model& model, const std::string& base,
   }
 }
 
-// The axis' position: a state of role position in m (rad) whose derivative is v (file comment).
+// The axis' position: a state in m (rad) whose derivative is v (file comment).
 std::string AxisPosition(const models::StateSpaceModel& built, const MechanicalAxis& axis) {
   const int v = built.StateIndex(axis.velocity);
   const TestPoint t = MakeTestPoint(built, v);
@@ -129,7 +129,9 @@ std::string AxisPosition(const models::StateSpaceModel& built, const MechanicalA
   for (int i = 0; i < built.NumStates(); ++i) {
     if (i == v || built.states[i].unit != unit) continue;
     const auto& s = built.signals[built.SignalIndex(built.states[i].name)];
-    if (s.info.role != SignalRole::kPosition) continue;
+    // A position by its role, or by its derivative alone when no role is declared (the robot
+    // blocks declare none for their joint angles).
+    if (s.info.role != SignalRole::kPosition && s.info.role != SignalRole::kNone) continue;
     auto close = [](double a, double b) {
       return std::fabs(a - b) <= kPositionMatchTolerance * std::max(1.0, std::fabs(b));
     };

@@ -16,6 +16,7 @@
 
 #include "graybox/diagnosis/screening.h"
 #include "graybox/estimators/fit/fit.h"
+#include "graybox/estimators/problem/problem_file.h"
 #include "graybox/models/model.h"
 
 namespace graybox::diagnosis {
@@ -412,6 +413,24 @@ TEST(Candidates, BacklashOnJointsWithoutOne) {
   const Eigen::VectorXd fa = a.dynamics({x, u, a.ParameterValues()})[0];
   const Eigen::VectorXd fb = b.dynamics({x, u, b.ParameterValues()})[0];
   EXPECT_LE((fa - fb).lpNorm<Eigen::Infinity>(), kNeutralTolerance * fb.lpNorm<Eigen::Infinity>());
+}
+
+// Every candidate of every effect on the repository's problem files: applies, builds, and is
+// neutral (the files are parsed only; no data are read).
+TEST(Candidates, EveryEffectOnTheProblemFiles) {
+  for (const char* file :
+       {"problems/emps/emps_closed_loop.toml", "problems/emps/emps_idim.toml",
+        "problems/kuka/iros2021_friction_ms.toml", "problems/kuka/roblue_friction_ms.toml"}) {
+    SCOPED_TRACE(file);
+    const est::Problem problem = est::LoadProblem(std::string(GRAYBOX_SOURCE_DIR) + "/" + file);
+    CandidateOptions o;
+    o.effects = AllEffects();
+    o.lugre_presliding = true;
+    const std::vector<Candidate> cs = EnumerateCandidates(problem, o);
+    std::cout << file << ": " << cs.size() << " candidates\n";
+    for (const auto& n : Names(cs)) std::cout << "  " << n << "\n";
+    ExpectNeutral(problem.model, cs);
+  }
 }
 
 // ---- Screening on synthetic data ----------------------------------------------------------------

@@ -85,10 +85,10 @@
 //                  "actuator.deadzone", attachment "command <signal> -> <readers>".
 //   ripple         friction.ripple    a1, b1 free (neutral 0; amplitude and phase, both linear),
 //                                     one harmonic, period P an option (held in the re-fit too).
-//                  On every axis with a position: a state of role position in m (rad) whose time
-//                  derivative is v (dq/dt equals v at the test point and at a second value of v, to
-//                  1e-12 relative). Reads the position, writes "-F" (or "+F"). One candidate per
-//                  period: CandidateOptions::ripple_periods when given, else the span
+//                  On every axis with a position: a state in m (rad), of role position or none,
+//                  whose time derivative is v (dq/dt equals v at the test point and at a second
+//                  value of v, to 1e-12 relative). Reads the position, writes "-F" (or "+F"). One
+//                  candidate per period: CandidateOptions::ripple_periods when given, else the span
 //                  typical_max - typical_min of the position (2 pi rad on a rotational axis) over
 //                  1, 2, 4 and 8. Detail "period <P> <m|rad>". The period cannot be screened by a
 //                  score test (the output does not depend on it at a zero amplitude), hence one
@@ -243,8 +243,8 @@ struct MechanicalAxis {
   std::string velocity;    // a state signal of role velocity
   std::string force;       // the force signal acting on it
   std::string connection;  // "-force" (the usual convention) or "force"
-  /// The axis' position: a state of role position whose time derivative is `velocity` (ripple
-  /// attaches there); empty when the model has none.
+  /// The axis' position: a state (of role position, or without a role) whose time derivative is
+  /// `velocity` (ripple and payload attach there); empty when the model has none.
   std::string position;
   bool prismatic = false;  // velocity in m/s (else rad/s)
   /// External inputs feeding the axis that no block writes to (input_delay attaches there).

@@ -217,6 +217,45 @@ TEST(Candidates, SensorsOnEveryChannelAndTheFeedbackVariant) {
   }
 }
 
+// Without position-dependent forces, an offset b on the position the loop feeds back is the
+// nominal loop shifted by -b: f(q, ...) = f_nominal(q + b, ...) and y(q) = y_nominal(q + b), so
+// from a shifted start the logged channels are the nominal ones (the feedback variant is then
+// only seen through position-dependent physics or another sensor; see candidates.h).
+TEST(Candidates, FeedbackSensorOffsetIsAShiftOfTheLoop) {
+  const models::Model loop = ClosedLoop();
+  std::vector<Candidate> cs = Enumerate(loop, {"sensor_offset"});
+  ASSERT_EQ(cs.size(), 3u);
+  ASSERT_EQ(cs[1].detail, "sensor.offset, output and feedback");
+  models::Model m = loop;
+  cs[1].apply(&m);
+  // Small enough for the controller's linear range: kp kv b = 0.39 V, kv qd = 0.24 V.
+  constexpr double kB = 1e-5;
+  m.SetParameter(cs[1].parameters[0], kB);
+  const models::StateSpaceModel a = m.Build(), b = loop.Build();
+  const int q = b.StateIndex("load.q");
+  Eigen::VectorXd x(b.NumStates());
+  x.setConstant(0.05);
+  x[b.StateIndex("load.qd")] = 0.001;
+  const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, 0.02);
+  Eigen::VectorXd shifted = x;
+  shifted[q] += kB;
+  const Eigen::VectorXd fa = a.dynamics({x, u, a.ParameterValues()})[0];
+  const Eigen::VectorXd fb = b.dynamics({shifted, u, b.ParameterValues()})[0];
+  const Eigen::VectorXd ya = a.output({x, u, a.ParameterValues()})[0];
+  const Eigen::VectorXd yb = b.output({shifted, u, b.ParameterValues()})[0];
+  // The same sums in another order (q + b read by the controller, kp kv ~ 4e4 V/m).
+  constexpr double kShiftTolerance = 1e-9;
+  EXPECT_LE((fa - fb).lpNorm<Eigen::Infinity>(), kShiftTolerance * fb.lpNorm<Eigen::Infinity>());
+  EXPECT_LE((ya - yb).lpNorm<Eigen::Infinity>(), kShiftTolerance * yb.lpNorm<Eigen::Infinity>());
+  // The output-only offset is not a shift: the controller still sees q (0.39 V less command,
+  // 0.14 m/s^2 on the load).
+  models::Model o = loop;
+  cs[0].apply(&o);
+  o.SetParameter(cs[0].parameters[0], kB);
+  const models::StateSpaceModel os = o.Build();
+  EXPECT_GT((os.dynamics({x, u, os.ParameterValues()})[0] - fb).lpNorm<Eigen::Infinity>(), 0.1);
+}
+
 TEST(Candidates, AddedLoadsOnRigidBodiesOnly) {
   // The inertia free: an added inertia would repeat it; a payload's weight is new.
   EXPECT_EQ(Names(Enumerate(ForceSlide(), {"rotor_inertia", "payload"})),

@@ -155,7 +155,11 @@
 //                  logged channel alone does not; but the metadata cannot tell whether the logged
 //                  channel is the controller's sensor (a motor encoder in the loop, a load encoder
 //                  logged), so the two hypotheses are scored separately. Friction and other
-//                  physics blocks never read the sensor.
+//                  physics blocks never read the sensor. Mind what data can show: without
+//                  position-dependent forces (ripple, gravity) the feedback variant is the nominal
+//                  loop shifted by -b (the logged channels are the nominal ones from a shifted
+//                  start, candidates_test), so its score is near 0 unless such forces or another
+//                  sensor see the shift; the output-only offset is seen against the reference.
 //
 // Default set. An empty CandidateOptions::effects proposes DefaultEffects(): the friction family
 // and input_delay. The effects above are proposed when named (or with effects = AllEffects()): they

@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   diagnose_cmd
       ->add_option("--refit-top", diagnose.refit_top,
-                   "candidates re-fitted per round, best by score first (default 3)")
+                   "candidates re-fitted per round, best by score first (default 5)")
       ->check(CLI::NonNegativeNumber);
   diagnose_cmd
       ->add_option("--threads", diagnose.threads,
@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
                    "most effects forward selection accepts (default 3)")
       ->check(CLI::NonNegativeNumber);
   withheld_cmd
-      ->add_option("--refit-top", withheld.refit_top, "candidates re-fitted per round (default 3)")
+      ->add_option("--refit-top", withheld.refit_top, "candidates re-fitted per round (default 5)")
       ->check(CLI::NonNegativeNumber);
   withheld_cmd
       ->add_option("--threads", withheld.threads,

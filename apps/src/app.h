@@ -36,7 +36,7 @@ struct CommandOptions {
   std::string command_line;  // recorded in result.json
   // diagnose only.
   int max_effects = 3;
-  int refit_top = 3;
+  int refit_top = 5;
   int threads = 0;
   std::vector<std::string> effects;  // candidate effects to propose; empty: all
   // bench withheld only.

@@ -514,11 +514,6 @@ const std::vector<std::string>& AllEffects() {
   return all;
 }
 
-const std::vector<std::string>& DefaultEffects() {
-  static const std::vector<std::string> defaults(AllEffects().begin(), AllEffects().begin() + 7);
-  return defaults;
-}
-
 std::string Candidate::Name() const { return effect + " (" + detail + ") on " + attachment; }
 
 void CandidateOptions::Validate() const {
@@ -617,8 +612,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
                                            const CandidateOptions& options) {
   options.Validate();
   auto wanted = [&](const std::string& effect) {
-    const std::vector<std::string>& list =
-        options.effects.empty() ? DefaultEffects() : options.effects;
+    const std::vector<std::string>& list = options.effects.empty() ? AllEffects() : options.effects;
     return std::find(list.begin(), list.end(), effect) != list.end();
   };
   std::vector<Candidate> out;

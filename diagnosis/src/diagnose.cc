@@ -96,7 +96,14 @@ std::string Verdict(const DiagnosisReport& d) {
   for (std::size_t i = 0; i < d.accepted.size(); ++i) {
     const AcceptedEffect& a = d.accepted[i];
     if (i > 0) v += i + 1 == d.accepted.size() ? " and " : ", ";
-    v += a.effect + " (" + a.detail + ") " +
+    std::string equally;
+    for (const std::string& alt : a.alternatives) {
+      const std::string effect = alt.substr(0, alt.find(' '));
+      if (equally.find(effect) == std::string::npos && effect != a.effect) {
+        equally += (equally.empty() ? "" : ", ") + effect;
+      }
+    }
+    v += a.effect + " (" + a.detail + (equally.empty() ? "" : "; equally: " + equally) + ") " +
          (gap ? "closes " + Percent(a.gap_closed) : "removes " + Percent(a.error_share));
   }
   v += gap ? " of the gap (" : " of the " + d.validation_role + " NRMSE (";
@@ -219,6 +226,14 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
         a.lr_p_value = r.lr_p_value;
         a.dof = dof;
         a.parameters = best->parameters;
+        for (const RefitResult& other : r.screening.refits) {
+          if (&other == best || !other.ok || other.at_bound) continue;
+          if (std::fabs(other.validation_nrmse_after - best->validation_nrmse_after) <=
+              options.min_relative_gain * before) {
+            a.alternatives.push_back(other.effect + " (" + other.detail + ") on " +
+                                     other.attachment);
+          }
+        }
         d.accepted.push_back(a);
         current = AugmentedProblem(current, current_fit, best->candidate, true);
         for (int i = 0; i < current.built.NumParameters(); ++i) {

@@ -249,6 +249,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
     aj["lr_statistic"] = a.lr_statistic;
     aj["lr_p_value"] = a.lr_p_value;
     aj["dof"] = a.dof;
+    aj["alternatives"] = a.alternatives;
     aj["parameters"] = ParametersJson(a.parameters);
     accepted.push_back(aj);
   }

@@ -4,8 +4,10 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -15,9 +17,11 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/QR>
 #include <Eigen/Sparse>
 #include <Eigen/SparseLU>
 
+#include "graybox/estimators/integrators/integrator_factory.h"
 #include "graybox/estimators/nlp/nlp.h"
 
 namespace graybox::diagnosis {
@@ -32,6 +36,9 @@ constexpr double kRidge = 1e-9;
 // Regularisation of the multiplier block of the KKT matrix, relative to max diag(H): keeps a
 // redundant constraint row from making it singular, changes d by O(1e-14).
 constexpr double kMultiplierRidge = 1e-14;
+// A variable within this distance of a bound (relative to max(1, |w|), in the NLP's scaled
+// variables) is at the bound: Ipopt's interior point stops within about its tolerance of it.
+constexpr double kActiveBound = 1e-6;
 
 std::string Format(const char* fmt, double v) {
   char buf[64];
@@ -59,7 +66,8 @@ Eigen::SparseMatrix<double> Triplets(int rows, int cols, const std::vector<int>&
 // `held` (see the header), and the noise variance of the full problem. Throws std::runtime_error
 // when the NLP cannot be evaluated.
 double GaussNewtonDecrease(const est::Nlp& nlp, const Eigen::VectorXd& w,
-                           const std::vector<std::string>& held, double* sigma2) {
+                           const std::vector<std::string>& held,
+                           const std::vector<std::string>& candidate_names, double* sigma2) {
   const int n = nlp.NumVariables();
   const int m = nlp.NumResiduals();
   Eigen::VectorXd r(m);
@@ -74,7 +82,14 @@ double GaussNewtonDecrease(const est::Nlp& nlp, const Eigen::VectorXd& w,
   int nf = 0;
   for (int i = 0; i < n; ++i) {
     const bool is_held = std::find(held.begin(), held.end(), nlp.names()[i]) != held.end();
-    if (nlp.lbw()[i] < nlp.ubw()[i] && !is_held) column[i] = nf++;
+    // A variable at one of its bounds is held too: the score test is taken on the directions
+    // the constraints let the estimate move in (a bound-blocked gradient is not a gain).
+    const double lb = nlp.lbw()[i], ub = nlp.ubw()[i];
+    const double tol = kActiveBound * std::max(1.0, std::fabs(w[i]));
+    const bool candidate = std::find(candidate_names.begin(), candidate_names.end(),
+                                     nlp.names()[i]) != candidate_names.end();
+    const bool active = !candidate && (w[i] - lb <= tol || ub - w[i] <= tol);
+    if (lb < ub && !is_held && !active) column[i] = nf++;
   }
   Eigen::SparseMatrix<double> J =
       Triplets(m, n, nlp.ResidualJacobianRows(), nlp.ResidualJacobianCols(), jv);
@@ -154,11 +169,102 @@ double GaussNewtonDecrease(const est::Nlp& nlp, const Eigen::VectorXd& w,
 void ScoreAt(const est::Nlp& nlp, const Eigen::VectorXd& w, const Candidate& candidate,
              CandidateScore* out) {
   double sigma2 = 0.0;
-  const double full = GaussNewtonDecrease(nlp, w, {}, &sigma2);
-  const double nominal = GaussNewtonDecrease(nlp, w, candidate.screened, nullptr);
+  const double full = GaussNewtonDecrease(nlp, w, {}, candidate.screened, &sigma2);
+  const double nominal =
+      GaussNewtonDecrease(nlp, w, candidate.screened, candidate.screened, nullptr);
   out->sigma2 = sigma2;
   if (!(out->sigma2 > 0.0)) throw std::runtime_error("zero residuals: no noise level");
   out->score = std::max(0.0, full - nominal) / out->sigma2;
+}
+
+// The score of the simulation (output-error) loss on the estimation splits, from forward
+// sensitivities of the augmented model at the restricted estimate (see the header): exact, dense
+// and small (one column per free parameter), so nothing cancels. Returns false (and leaves `out`
+// alone) when a simulation does not finish.
+bool ScoreBySimulation(const est::Problem& aug, const std::vector<est::SplitData>& splits,
+                       const est::FitResult& nominal, const Candidate& candidate,
+                       CandidateScore* out) {
+  const models::StateSpaceModel& m = aug.built;
+  std::vector<int> columns;   // model parameter indices: nominal free, then the candidate's
+  std::vector<double> scale;  // column scaling (the parameter's scale)
+  int num_candidate = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < m.NumParameters(); ++i) {
+      const models::ModelParameter& p = m.parameters[i];
+      const bool is_candidate = std::find(candidate.screened.begin(), candidate.screened.end(),
+                                          p.name) != candidate.screened.end();
+      if ((pass == 0 && p.free && !is_candidate) || (pass == 1 && is_candidate)) {
+        columns.push_back(i);
+        scale.push_back(p.scale > 0.0 ? p.scale : 1.0);
+        num_candidate += pass;
+      }
+    }
+  }
+  const Eigen::VectorXd values = m.ParameterValues();
+  std::vector<Eigen::MatrixXd> blocks_j;
+  std::vector<Eigen::VectorXd> blocks_r;
+  Eigen::Index rows = 0;
+  for (const est::SplitData& split : splits) {
+    if (split.role != est::SplitRole::kEstimation) continue;
+    const est::Experiment& e = split.experiment;
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(m.NumStates());
+    const auto it = nominal.initial_states.find(split.name);
+    const Eigen::VectorXd& x0_nominal =
+        it != nominal.initial_states.end() ? it->second : split.setup.x0;
+    x0.head(std::min<Eigen::Index>(x0_nominal.size(), x0.size())) =
+        x0_nominal.head(std::min<Eigen::Index>(x0_nominal.size(), x0.size()));
+    const std::unique_ptr<est::Integrator> integrator =
+        est::MakeIntegrator(m, e.dt, aug.estimation.integrator);
+    const est::SensitivityTrajectory t =
+        integrator->SimulateWithSensitivities(x0, e.u, values, columns);
+    if (!t.ok || !t.y.allFinite()) return false;
+    const Eigen::Index n = e.y.rows(), ny = e.y.cols();
+    Eigen::VectorXd weight(ny);
+    for (Eigen::Index c = 0; c < ny; ++c) {
+      const double mean = e.y.col(c).mean();
+      const double sd = std::sqrt((e.y.col(c).array() - mean).square().mean());
+      weight[c] = sd > 0.0 ? 1.0 / sd : 1.0;
+    }
+    Eigen::MatrixXd jac(n * ny, columns.size());
+    Eigen::VectorXd r(n * ny);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      for (Eigen::Index c = 0; c < ny; ++c) {
+        r[k * ny + c] = weight[c] * (e.y(k, c) - t.y(k, c));
+        for (std::size_t j = 0; j < columns.size(); ++j) {
+          jac(k * ny + c, j) = weight[c] * t.dy_dp[k](c, j) * scale[j];
+        }
+      }
+    }
+    if (!jac.allFinite()) return false;
+    rows += n * ny;
+    blocks_j.push_back(std::move(jac));
+    blocks_r.push_back(std::move(r));
+  }
+  if (rows == 0) return false;
+  Eigen::MatrixXd J(rows, columns.size());
+  Eigen::VectorXd r(rows);
+  Eigen::Index at = 0;
+  for (std::size_t b = 0; b < blocks_j.size(); ++b) {
+    J.middleRows(at, blocks_j[b].rows()) = blocks_j[b];
+    r.segment(at, blocks_r[b].size()) = blocks_r[b];
+    at += blocks_j[b].rows();
+  }
+  // |projection of r onto the span of the columns|^2, by a rank-revealing QR.
+  auto decrease = [&](int num_columns) {
+    if (num_columns == 0) return 0.0;
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(J.leftCols(num_columns));
+    const Eigen::VectorXd qtr = qr.householderQ().transpose() * r;
+    return qtr.head(qr.rank()).squaredNorm();
+  };
+  const int n_nominal = static_cast<int>(columns.size()) - num_candidate;
+  const double full = decrease(static_cast<int>(columns.size()));
+  const double restricted = decrease(n_nominal);
+  const double sigma2 = r.squaredNorm() / std::max<Eigen::Index>(1, rows - n_nominal);
+  if (!(sigma2 > 0.0)) return false;
+  out->sigma2 = sigma2;
+  out->score = std::max(0.0, full - restricted) / sigma2;
+  out->method = "simulation";
+  return true;
 }
 
 CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitData>& splits,
@@ -169,6 +275,11 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
   try {
     if (out.dof == 0) throw std::runtime_error("no parameter with a neutral value to test");
     const est::Problem aug = AugmentedProblem(problem, nominal, candidate, false);
+    if (ScoreBySimulation(aug, splits, nominal, candidate, &out)) {
+      out.p_value = ChiSquareSurvival(out.score, out.dof);
+      return out;
+    }
+    out.method = "nlp";
     est::FitOptions fo;
     fo.compute_covariance = false;
     fo.evaluate_splits = false;

@@ -139,13 +139,14 @@ std::vector<std::string> Names(const std::vector<Candidate>& cs) {
   return n;
 }
 
-TEST(Candidates, DefaultSetIsTheFrictionFamilyAndDelay) {
-  EXPECT_EQ(DefaultEffects().size(), 7u);
+TEST(Candidates, DefaultSetIsEveryEffect) {
   EXPECT_EQ(AllEffects().size(), 16u);
+  std::vector<std::string> effects;
   for (const auto& c : EnumerateCandidates(est::MakeProblem("slide", CommandSlide()))) {
-    EXPECT_NE(c.effect, "deadzone");
-    EXPECT_NE(c.effect, "ripple");
-    EXPECT_EQ(c.effect.rfind("sensor_", 0), std::string::npos) << c.effect;
+    effects.push_back(c.effect);
+  }
+  for (const char* e : {"coulomb", "deadzone", "ripple", "sensor_offset", "sensor_scale"}) {
+    EXPECT_NE(std::find(effects.begin(), effects.end(), e), effects.end()) << e;
   }
   CandidateOptions bad;
   bad.ripple_periods = {0.0};

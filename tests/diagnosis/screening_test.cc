@@ -166,7 +166,10 @@ TEST(EnumerateCandidates, FindsTheAxisFromMetadata) {
   EXPECT_EQ(axes[0].present_types, std::vector<std::string>{"friction.viscous"});
   EXPECT_EQ(axes[0].inputs, std::vector<std::string>{"u"});
 
-  const std::vector<Candidate> candidates = EnumerateCandidates(problem);
+  CandidateOptions friction_and_delay;
+  friction_and_delay.effects = {"coulomb",           "asymmetric_friction", "stribeck",   "viscous",
+                                "power_law_viscous", "presliding",          "input_delay"};
+  const std::vector<Candidate> candidates = EnumerateCandidates(problem, friction_and_delay);
   std::vector<std::string> effects;
   for (const auto& c : candidates) effects.push_back(c.effect);
   const std::vector<std::string> expected = {"coulomb",    "asymmetric_friction",

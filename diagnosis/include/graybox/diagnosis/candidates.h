@@ -161,12 +161,12 @@
 //                  start, candidates_test), so its score is near 0 unless such forces or another
 //                  sensor see the shift; the output-only offset is seen against the reference.
 //
-// Default set. An empty CandidateOptions::effects proposes DefaultEffects(): the friction family
-// and input_delay. The effects above are proposed when named (or with effects = AllEffects()): they
-// add 4 ripple candidates per axis and 2 to 4 sensor candidates per channel, which multiplies the
-// score tests (runtime, and the family-wise false-alarm rate of a threshold on p), and they have
-// been checked on synthetic data only (tests/diagnosis/candidates_test.cc), not yet on the EMPS and
-// KUKA records the default set is tested on.
+// Default set. An empty CandidateOptions::effects proposes AllEffects(): every effect whose
+// signals the model has. That is many score tests (on a single axis with two outputs about 20:
+// 4 ripple candidates per axis, 2 to 4 sensor candidates per channel), which costs time and raises
+// the chance that some candidate looks significant by accident; the diagnosis (diagnose.h)
+// therefore accepts an effect only when its re-fit also lowers the validation error by a margin.
+// Name a subset in `effects` to screen fewer.
 //
 // Not yet proposed here: elasticity (rigid -> two-mass). A rigid axis has no neutral elastic form
 // the score test could start from: the rigid limit is an infinite stiffness, and a compliance
@@ -220,8 +220,7 @@ struct Candidate {
 };
 
 struct CandidateOptions {
-  /// Effects to propose (names as in Candidate::effect); empty: DefaultEffects(). AllEffects()
-  /// proposes everything this layer knows.
+  /// Effects to propose (names as in Candidate::effect); empty: AllEffects().
   std::vector<std::string> effects;
   /// Periods [m or rad] of the ripple candidates, one candidate each on every axis with a
   /// position (the pole or slot pitch, a screw lead, a gear-tooth pitch, or the peaks of the
@@ -238,9 +237,6 @@ struct CandidateOptions {
 /// input_delay, deadzone, ripple, rotor_inertia, payload; per chamber leakage, polytropic_index;
 /// then per output channel sensor_offset, sensor_scale.
 const std::vector<std::string>& AllEffects();
-/// What an empty CandidateOptions::effects proposes: coulomb, asymmetric_friction, stribeck,
-/// viscous, power_law_viscous, presliding, input_delay (see "Default set" in the file comment).
-const std::vector<std::string>& DefaultEffects();
 
 /// A mechanical axis found from metadata (see the file comment).
 struct MechanicalAxis {

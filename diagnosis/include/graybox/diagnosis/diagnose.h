@@ -59,6 +59,8 @@
 //    samples; coulomb (friction.coulomb) closes 87 % of the gap (validation NRMSE 0.094 -> 0.057,
 //    flexible reference 0.052)"   (without a gap: "... removes 40 % of the validation NRMSE")
 //   "... ; not explained by the candidate library (best: viscous, 0.4 %, not significant)".
+// Effects the data cannot tell apart from an accepted one (AcceptedEffect::alternatives) are named
+// after it: "asymmetric_friction (friction.offset; equally: sensor_offset, payload)".
 // DiagnosisReport::explained is true when at least one effect was accepted.
 //
 // Threads. Screening and re-fits run on options.screening.num_threads threads (screening.h);
@@ -114,6 +116,11 @@ struct AcceptedEffect {
   double gap_closed = 0.0;   // shrinkage / gap (NaN without a gap)
   double lr_statistic = 0.0, lr_p_value = 1.0;
   int dof = 0;  // free parameters the effect added
+  /// The other re-fits of the same round whose validation NRMSE is within min_relative_gain x
+  /// e_before of this one's: effects the data do not tell apart from it (a constant force on an
+  /// axis, a vertical payload's weight and an offset of a logged command can be one signature),
+  /// as "effect (detail) on attachment".
+  std::vector<std::string> alternatives;
   /// The effect's parameters in the final model (values, standard errors, 95 % intervals of the
   /// final fit, after every accepted effect).
   std::vector<estimators::FitParameter> parameters;

@@ -10,10 +10,30 @@
 // ---- The score test
 // ------------------------------------------------------------------------------ For a candidate
 // the augmented problem is problem.model with every parameter at its value in `nominal`, plus the
-// candidate's block at its neutral value (Candidate::apply); the nominal free parameters and
-// Candidate::screened are free. Its NLP (FitSession::nlp(): the formulation of
-// problem.estimation.method on the estimation splits) has variables w = (theta, nu): the free
-// parameters theta first, scaled (parameter_map.h), then the method's other variables nu
+// candidate's block at its neutral value (Candidate::apply); the nominal free parameters theta and
+// Candidate::screened phi are free.
+//
+// Simulation score (CandidateScore::method "simulation", the default). Every estimation split is
+// simulated by the problem's integrator from the nominal fit's initial state (the candidate's own
+// states at 0) with forward sensitivities dy/d(theta, phi) (integrators.h). With the residual
+// r = W (y_measured - y_simulated), W = 1 / std of each measured channel, stacked over samples,
+// channels and splits (N rows), J = dr/d(theta, phi) with columns scaled by each parameter's scale,
+// and P_S the orthogonal projector on the columns S (rank-revealing QR),
+//
+//   LM = (|P_(theta,phi) r|^2 - |P_theta r|^2) / sigma^2,   sigma^2 = |r|^2 / (N - |theta|):
+//
+// the decrease of the output-error loss one Gauss-Newton step would give with the new parameters,
+// beyond what the nominal parameters would still give at this point (the efficient score; at an
+// exact output-error optimum the second term is 0). It scores every method's fit by the
+// simulation error the diagnosis ranks by. It replaced a score on the formulation's own NLP for
+// multiple shooting, whose KKT projection cancelled a gradient of norm 9e5 against the
+// continuity multipliers and left numerical noise of ~4e4 sigma^2 (the EMPS closed loop: Coulomb
+// friction scored 0.2 there, 3.8e4 here, its re-fit's likelihood ratio being 7.6e4).
+//
+// NLP score (method "nlp"), the fallback when a simulation does not finish (an unstable model
+// that only multiple shooting can fit). The augmented problem's NLP (FitSession::nlp(): the
+// formulation of problem.estimation.method on the estimation splits) has variables w = (theta, nu):
+// the free parameters theta first, scaled (parameter_map.h), then the method's other variables nu
 // (shooting nodes, initial states), and residuals r(w), equality constraints c(w) = 0 (multiple
 // shooting's continuity on Ipopt). The test is evaluated at the restricted estimate w0: the
 // nominal optimum with the new parameters at neutral. It is nominal.solver_result.w with the new
@@ -88,7 +108,7 @@ namespace graybox::diagnosis {
 
 struct ScreeningOptions {
   /// How many of the best-screened candidates to re-fit (>= 0).
-  int refit_top = 3;
+  int refit_top = 5;
   /// Which candidates to propose.
   CandidateOptions candidates;
   /// Relative difference of two validation NRMSEs below which BIC decides the order (>= 0).
@@ -113,7 +133,10 @@ struct CandidateScore {
   int dof = 0;                    // |Candidate::screened|
   double sigma2 = 0.0;            // |r|^2 / (N - n_eff)
   bool restricted_solve = false;  // w0 came from a restricted solve, not the nominal point
-  std::string failure;            // empty unless the test could not be evaluated
+  /// "simulation" (the score of the output-error loss by forward sensitivities) or "nlp" (the
+  /// score on the formulation's own NLP, when a simulation did not finish).
+  std::string method;
+  std::string failure;  // empty unless the test could not be evaluated
 };
 
 /// The re-fit of one candidate.

@@ -47,7 +47,8 @@ TEST(WithheldBench, CoulombIsNamedAndTheDisturbanceIsLeftUnexplained) {
 
   const nlohmann::json j = nlohmann::json::parse(WithheldBenchJson(b, {{"seed", "1"}}));
   ASSERT_EQ(j.at("records").size(), 2u);
-  for (const char* key : {"case", "withheld", "in_library", "top", "accepted", "shrinkage_error"}) {
+  for (const char* key : {"case", "withheld", "in_library", "top", "accepted", "top_alternatives",
+                          "named_or_equivalent", "shrinkage_error"}) {
     EXPECT_TRUE(j["records"][0].contains(key)) << key;
   }
   EXPECT_EQ(j["records"][0]["withheld"], "coulomb");

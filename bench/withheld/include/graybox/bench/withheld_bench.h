@@ -12,6 +12,10 @@
 //   truth_detail
 //   top        the first accepted effect of the forward selection, or "none"
 //   accepted   the accepted effects, in order
+//   top_alternatives  the effects the data could not tell apart from the top one
+//                     (AcceptedEffect::alternatives, effect names only)
+//   named_or_equivalent  one library effect withheld, and it is the top or one of its
+//                     alternatives (the same signature on these data)
 //   explained  DiagnosisReport::explained
 //   nominal_validation_nrmse, final_validation_nrmse, reference_validation_nrmse, oracle
 //   shrinkage            e_nominal - e_final, what the diagnosis says the accepted effects bring
@@ -26,6 +30,7 @@
 // ---- Summary (the pass marks)
 // ------------------------------------------------------------
 //   top-ranked rate    of the one-effect library cases, the share whose top is the withheld one
+//   named-or-equivalent rate  the same, counting the top's alternatives too
 //   both-found rate    of the two-effect cases, the share with both among the accepted
 //   unexplained rate   of the cases outside the library, the share with nothing accepted
 //   shrinkage within   of the passing library cases, the share with shrinkage_error <= 0.25
@@ -65,6 +70,8 @@ struct WithheldRecord {
   bool in_library = true;
   std::string top = "none";
   std::vector<std::string> accepted;
+  std::vector<std::string> top_alternatives;
+  bool named_or_equivalent = false;
   bool explained = false;
   double nominal_validation_nrmse = 0.0, final_validation_nrmse = 0.0;
   double reference_validation_nrmse = 0.0, oracle_validation_nrmse = 0.0;
@@ -78,6 +85,7 @@ struct WithheldRecord {
 struct WithheldBench {
   std::vector<WithheldRecord> records;
   double top_ranked_rate = 0.0;
+  double named_or_equivalent_rate = 0.0;
   double both_found_rate = 0.0;
   double unexplained_rate = 0.0;
   double shrinkage_within_rate = 0.0;

@@ -17,6 +17,26 @@
 
 #include "../src/app.h"
 
+namespace {
+
+// The options of the diagnosis, shared by `diagnose` and `bench withheld`.
+void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
+  cmd->add_option("--max-effects", o->max_effects,
+                  "most effects forward selection accepts (default 3)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--refit-top", o->refit_top,
+                  "candidates re-fitted per round, best by score first (default 5)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", o->threads,
+                  "threads for screening and re-fits (default 0: one per hardware thread)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--effects", o->effects,
+                  "candidate effects to propose, comma-separated (default: every effect)")
+      ->delimiter(',');
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using graybox::app::CommandOptions;
   std::string command_line;
@@ -71,22 +91,7 @@ int main(int argc, char** argv) {
   diagnose_cmd->add_option("problem", diagnose.problem, "problem file (TOML)")->required();
   diagnose_cmd->add_option("--out,-o", diagnose.out, "output directory (diagnosis.json)")
       ->required();
-  diagnose_cmd
-      ->add_option("--max-effects", diagnose.max_effects,
-                   "most effects forward selection accepts (default 3)")
-      ->check(CLI::NonNegativeNumber);
-  diagnose_cmd
-      ->add_option("--refit-top", diagnose.refit_top,
-                   "candidates re-fitted per round, best by score first (default 5)")
-      ->check(CLI::NonNegativeNumber);
-  diagnose_cmd
-      ->add_option("--threads", diagnose.threads,
-                   "threads for screening and re-fits (default 0: one per hardware thread)")
-      ->check(CLI::NonNegativeNumber);
-  diagnose_cmd
-      ->add_option("--effects", diagnose.effects,
-                   "candidate effects to propose, comma-separated (default: every effect)")
-      ->delimiter(',');
+  AddDiagnosisOptions(diagnose_cmd, &diagnose);
 
   CLI::App* bench_cmd = app.add_subcommand("bench", "benchmarks of the library");
   bench_cmd->require_subcommand(1);
@@ -100,21 +105,7 @@ int main(int argc, char** argv) {
       ->add_option("--cases", withheld.cases,
                    "only the cases whose name contains one of these, comma-separated")
       ->delimiter(',');
-  withheld_cmd
-      ->add_option("--max-effects", withheld.max_effects,
-                   "most effects forward selection accepts (default 3)")
-      ->check(CLI::NonNegativeNumber);
-  withheld_cmd
-      ->add_option("--refit-top", withheld.refit_top, "candidates re-fitted per round (default 5)")
-      ->check(CLI::NonNegativeNumber);
-  withheld_cmd
-      ->add_option("--threads", withheld.threads,
-                   "threads for screening and re-fits (default 0: one per hardware thread)")
-      ->check(CLI::NonNegativeNumber);
-  withheld_cmd
-      ->add_option("--effects", withheld.effects,
-                   "candidate effects to propose, comma-separated (default: every effect)")
-      ->delimiter(',');
+  AddDiagnosisOptions(withheld_cmd, &withheld);
 
   try {
     app.parse(argc, argv);

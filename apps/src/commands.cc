@@ -90,6 +90,31 @@ void Finish(const std::string& out, const std::string& json_name, RunReport* rep
            " plots and traces in " + out);
 }
 
+// The diagnosis options the command line sets (shared by diagnose and bench withheld).
+diagnosis::DiagnoseOptions DiagnoseOptionsFrom(const CommandOptions& o) {
+  diagnosis::DiagnoseOptions options;
+  options.max_effects = o.max_effects;
+  options.screening.refit_top = o.refit_top;
+  options.screening.num_threads = o.threads;
+  options.screening.candidates.effects = o.effects;
+  return options;
+}
+
+// Progress lines stamped with the seconds since `total` started.
+std::function<void(const std::string&)> StampedProgress(const Timer& total,
+                                                        const std::string& indent) {
+  return [&total, indent](const std::string& line) {
+    char stamp[32];
+    std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
+    Progress(indent + stamp + line);
+  };
+}
+
+// The "run" object of diagnosis.json and bench.json.
+std::vector<std::pair<std::string, std::string>> RunMetadata(const CommandOptions& o) {
+  return {{"command_line", o.command_line}, {"revision", GitRevision()}, {"version", Version()}};
+}
+
 }  // namespace
 
 int RunFit(const CommandOptions& o) {
@@ -210,28 +235,17 @@ int RunDiagnose(const CommandOptions& o) {
     const Problem problem = estimators::LoadProblem(o.problem);
     Progress("graybox diagnose: problem '" + problem.name + "' (" + o.problem + ")");
     CheckOutputDirectory(o.out);
-    diagnosis::DiagnoseOptions options;
-    options.max_effects = o.max_effects;
-    options.screening.refit_top = o.refit_top;
-    options.screening.num_threads = o.threads;
-    options.screening.candidates.effects = o.effects;
+    diagnosis::DiagnoseOptions options = DiagnoseOptionsFrom(o);
     options.Validate();
     const std::vector<SplitData> splits = estimators::LoadData(problem);
     PrintProblem(problem, splits);
-    options.progress = [&total](const std::string& line) {
-      char stamp[32];
-      std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
-      Progress(std::string("  ") + stamp + line);
-    };
+    options.progress = StampedProgress(total, "  ");
     const diagnosis::DiagnosisReport d = diagnosis::Diagnose(problem, splits, options);
     std::cout << d.FullReport();
     namespace fs = std::filesystem;
     fs::create_directories(o.out);
-    const std::vector<std::pair<std::string, std::string>> run = {
-        {"command_line", o.command_line},
-        {"revision", GitRevision()},
-        {"version", Version()},
-        {"seed", std::to_string(problem.estimation.seed)}};
+    std::vector<std::pair<std::string, std::string>> run = RunMetadata(o);
+    run.emplace_back("seed", std::to_string(problem.estimation.seed));
     // report.html first, diagnosis.json last: a reader that finds the JSON finds the page too.
     WriteFileAtomically((fs::path(o.out) / "report.html").string(),
                         diagnosis::DiagnosisHtml(d, run));
@@ -251,16 +265,9 @@ int RunBenchWithheld(const CommandOptions& o) {
     bench::WithheldBenchOptions options;
     options.cases.fast_subset = o.fast;
     options.name_filters = o.cases;
-    options.diagnose.max_effects = o.max_effects;
-    options.diagnose.screening.refit_top = o.refit_top;
-    options.diagnose.screening.num_threads = o.threads;
-    options.diagnose.screening.candidates.effects = o.effects;
+    options.diagnose = DiagnoseOptionsFrom(o);
     options.Validate();
-    options.progress = [&total](const std::string& line) {
-      char stamp[32];
-      std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
-      Progress(std::string(stamp) + line);
-    };
+    options.progress = StampedProgress(total, "");
     Progress("graybox bench withheld" + std::string(o.fast ? " (fast subset)" : ""));
     const bench::WithheldBench b = bench::RunWithheldBench(options);
     std::cout << "confusion (rows: withheld, columns: top-ranked):\n"
@@ -268,9 +275,7 @@ int RunBenchWithheld(const CommandOptions& o) {
     namespace fs = std::filesystem;
     fs::create_directories(o.out);
     WriteFileAtomically((fs::path(o.out) / "bench.json").string(),
-                        bench::WithheldBenchJson(b, {{"command_line", o.command_line},
-                                                     {"revision", GitRevision()},
-                                                     {"version", Version()}}));
+                        bench::WithheldBenchJson(b, RunMetadata(o)));
     Progress("wrote " + (fs::path(o.out) / "bench.json").string());
     return kExitSuccess;
   });

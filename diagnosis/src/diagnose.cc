@@ -236,10 +236,12 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
         }
         d.accepted.push_back(a);
         current = AugmentedProblem(current, current_fit, best->candidate, true);
+        // The re-fitted values are data of the built model: no second Build.
         for (int i = 0; i < current.built.NumParameters(); ++i) {
-          current.model.Parameter(current.built.parameters[i].name).value = best->fit.values[i];
+          models::ModelParameter& p = current.built.parameters[i];
+          p.value = best->fit.values[i];
+          current.model.Parameter(p.name).value = p.value;
         }
-        current.built = current.model.Build();
         current_splits = AugmentedSplits(current_splits, current.built.NumStates());
         current_fit = best->fit;
         progress("round " + std::to_string(round) + ": accepted " + name + ", " +

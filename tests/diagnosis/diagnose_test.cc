@@ -18,86 +18,32 @@
 #include "graybox/diagnosis/report_json.h"
 #include "graybox/estimators/fit/fit.h"
 #include "graybox/models/model.h"
+#include "slide_truth.h"
 
 namespace graybox::diagnosis {
 namespace {
 
 namespace est = graybox::estimators;
 
-constexpr double kPi = 3.14159265358979323846;
-
-unsigned Seed() {
-  const char* s = std::getenv("GRAYBOX_TEST_SEED");
-  const unsigned seed = s ? static_cast<unsigned>(std::strtoul(s, nullptr, 10)) : 20261126u;
-  std::cout << "seed " << seed << " (GRAYBOX_TEST_SEED overrides)\n";
-  return seed;
-}
-
 // The truth: a 2 kg slide with viscous friction 3 N s/m and, when withheld,
 //   f(v) = fc (2 / pi) atan(v / vd) + f_asym
 // (vd = 1 mm/s; the coulomb candidate is fc tanh(100 v), the asymmetry a constant force).
-constexpr double kMass = 2.0;       // [kg]
-constexpr double kViscous = 3.0;    // [N s/m]
-constexpr double kFc = 1.2;         // [N]
-constexpr double kAsym = 0.5;       // [N]
-constexpr double kVd = 0.001;       // [m/s]
-constexpr double kDt = 0.01;        // [s]
-constexpr int kSamples = 1000;      // per split (10 s)
-constexpr int kSubsteps = 40;       // RK4 steps per sample of the truth
-constexpr double kNoiseStd = 0.01;  // [m/s]
+constexpr double kFc = 1.2;    // [N]
+constexpr double kAsym = 0.5;  // [N]
+constexpr double kVd = 0.001;  // [m/s]
 
-double Force(double t, double phase) {
-  return 2.5 * std::sin(2.0 * kPi * 0.3 * t + phase) +
-         1.5 * std::sin(2.0 * kPi * 0.9 * t + 1.0 + 2.0 * phase) +
-         0.8 * std::sin(2.0 * kPi * 1.7 * t + 2.0 + 3.0 * phase);
-}
-
-est::SplitData TruthSplit(const std::string& name, est::SplitRole role, double phase, bool withheld,
-                          std::mt19937* rng) {
-  est::Experiment e;
-  e.name = name;
-  e.dt = kDt;
-  e.u.resize(kSamples, 1);
-  e.y.resize(kSamples, 1);
-  std::normal_distribution<double> noise(0.0, kNoiseStd);
-  double v = 0.0;
-  const double h = kDt / kSubsteps;
-  auto friction = [&](double vv) {
-    return withheld ? kFc * (2.0 / kPi) * std::atan(vv / kVd) + kAsym : 0.0;
-  };
-  for (int k = 0; k < kSamples; ++k) {
-    const double u = Force(k * kDt, phase);
-    e.u(k, 0) = u;
-    e.y(k, 0) = v + noise(*rng);
-    auto f = [&](double vv) { return (u - kViscous * vv - friction(vv)) / kMass; };
-    for (int s = 0; s < kSubsteps; ++s) {
-      const double k1 = f(v), k2 = f(v + 0.5 * h * k1), k3 = f(v + 0.5 * h * k2),
-                   k4 = f(v + h * k3);
-      v += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-    }
-  }
-  return est::MakeSplit(name, role, e, Eigen::VectorXd::Zero(2));
-}
-
-est::Problem NominalProblem() {
-  models::Model m("slide");
-  m.AddInput("force", "N", "drive force", -5.0, 5.0);
-  models::BlockOptions prismatic;
-  prismatic.words["motion"] = "prismatic";
-  m.AddBlock("load", "mechanics.mass", prismatic, {"force"}, {});
-  m.AddBlock("friction", "friction.viscous", prismatic, {"load.qd"}, {"-force"});
-  m.SetParameter("load.mass", 1.0);
-  m.SetParameter("friction.fv", 1.0);
-  m.AddOutput("load.qd");
-  est::EstimationSpec spec;
-  spec.step.substeps = 4;
-  return est::MakeProblem("slide", m, spec);
-}
+est::Problem NominalProblem() { return testing::NominalSlideProblem(); }
 
 std::vector<est::SplitData> Splits(bool withheld) {
-  std::mt19937 rng(Seed());
-  return {TruthSplit("estimation", est::SplitRole::kEstimation, 0.0, withheld, &rng),
-          TruthSplit("validation", est::SplitRole::kValidation, 0.7, withheld, &rng)};
+  std::mt19937 rng(testing::TestSeed(20261126u));
+  testing::SlideTruth truth;
+  if (withheld) {
+    truth.friction = [](double v) {
+      return kFc * (2.0 / testing::kPi) * std::atan(v / kVd) + kAsym;
+    };
+  }
+  return {testing::SlideSplit(truth, "estimation", est::SplitRole::kEstimation, 0.0, &rng),
+          testing::SlideSplit(truth, "validation", est::SplitRole::kValidation, 0.7, &rng)};
 }
 
 // The friction-family candidates and the input delay: the effects this model can carry.

@@ -24,6 +24,10 @@ std::string Suggest(const std::string& name, const std::vector<std::string>& kno
   return hint.empty() ? "" : "; did you mean '" + hint + "'?";
 }
 
+std::shared_ptr<const Block> FromRegistry(const std::string& type, const BlockOptions& options) {
+  return std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options));
+}
+
 // "-name" -> ("name", -1); "name" -> ("name", +1).
 std::pair<std::string, double> Connection(const std::string& c) {
   if (!c.empty() && c[0] == '-') return {c.substr(1), -1.0};
@@ -145,12 +149,7 @@ const Model::Instance* Model::FindInstance(const std::string& n) const {
   return nullptr;
 }
 
-void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> block,
-                     const std::vector<std::string>& inputs,
-                     const std::vector<std::string>& outputs) {
-  if (!block) {
-    throw std::invalid_argument("model '" + name_ + "': block '" + instance + "' is null");
-  }
+void Model::CheckNewInstance(const std::string& instance) const {
   if (instance.empty() || instance.find('.') != std::string::npos) {
     throw std::invalid_argument("model '" + name_ +
                                 "': expected a block instance name without '.', got '" + instance +
@@ -160,6 +159,15 @@ void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> b
     throw std::invalid_argument("model '" + name_ + "': block instance '" + instance +
                                 "' added twice");
   }
+}
+
+void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> block,
+                     const std::vector<std::string>& inputs,
+                     const std::vector<std::string>& outputs) {
+  if (!block) {
+    throw std::invalid_argument("model '" + name_ + "': block '" + instance + "' is null");
+  }
+  CheckNewInstance(instance);
   const BlockInfo& info = block->info();
   if (static_cast<int>(inputs.size()) != block->NumInputs()) {
     throw std::invalid_argument("model '" + name_ + "': block '" + instance + "' (" + info.type +
@@ -200,8 +208,7 @@ void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> b
 void Model::AddBlock(const std::string& instance, const std::string& type,
                      const BlockOptions& options, const std::vector<std::string>& inputs,
                      const std::vector<std::string>& outputs) {
-  AddBlock(instance, std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)),
-           inputs, outputs);
+  AddBlock(instance, FromRegistry(type, options), inputs, outputs);
 }
 
 void Model::Augment(const std::string& instance, std::shared_ptr<const Block> block,
@@ -216,8 +223,7 @@ void Model::Augment(const std::string& instance, std::shared_ptr<const Block> bl
 void Model::Augment(const std::string& instance, const std::string& type,
                     const BlockOptions& options, const std::vector<std::string>& inputs,
                     const std::vector<std::string>& outputs) {
-  Augment(instance, std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)),
-          inputs, outputs);
+  Augment(instance, FromRegistry(type, options), inputs, outputs);
 }
 
 void Model::InsertOnSignal(const std::string& signal, const std::string& instance,
@@ -234,6 +240,7 @@ void Model::InsertOnSignal(const std::string& signal, const std::string& instanc
     throw std::invalid_argument("model '" + name_ + "': InsertOnSignal: unknown signal '" + signal +
                                 "'" + Suggest(signal, known));
   }
+  CheckNewInstance(instance);
   const std::string replacement = instance + ".out";
   for (auto& inst : instances_) {
     for (auto& in : inst.inputs) {
@@ -293,6 +300,7 @@ void Model::InsertForReaders(const std::string& signal, const std::string& insta
                                   "'" + Suggest(r, names));
     }
   }
+  CheckNewInstance(instance);
   const std::string replacement = instance + ".out";
   for (auto& inst : instances_) {
     if (std::find(readers.begin(), readers.end(), inst.name) == readers.end()) continue;
@@ -307,8 +315,20 @@ void Model::InsertForReaders(const std::string& signal, const std::string& insta
 
 void Model::InsertOnSignal(const std::string& signal, const std::string& instance,
                            const std::string& type, const BlockOptions& options) {
-  InsertOnSignal(signal, instance,
-                 std::shared_ptr<const Block>(BlockRegistry::Global().Create(type, options)));
+  InsertOnSignal(signal, instance, FromRegistry(type, options));
+}
+
+void Model::InsertOnOutput(const std::string& output, const std::string& instance,
+                           const std::string& type, const BlockOptions& options,
+                           const std::vector<std::string>& readers) {
+  InsertOnOutput(output, instance, FromRegistry(type, options), readers);
+}
+
+void Model::InsertForReaders(const std::string& signal, const std::string& instance,
+                             const std::string& type, const BlockOptions& options,
+                             const std::vector<std::string>& readers,
+                             const std::vector<std::string>& extra_inputs) {
+  InsertForReaders(signal, instance, FromRegistry(type, options), readers, extra_inputs);
 }
 
 void Model::AddOutput(const std::string& signal) {

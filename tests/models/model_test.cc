@@ -185,6 +185,35 @@ TEST(Model, InsertForReadersLeavesOtherReadersAndOutputs) {
   EXPECT_EQ(m.Blocks()[3].type, "test.gain");
 }
 
+// An insert whose instance name is taken fails before it rewires anything.
+TEST(Model, InsertWithATakenInstanceLeavesTheModelUnchanged) {
+  Model m = BrakedInertia();
+  EXPECT_THROW(m.InsertOnSignal("u", "brake", std::make_shared<Gain>()), std::invalid_argument);
+  EXPECT_THROW(m.InsertForReaders("u", "load", std::make_shared<Gain>(), {"load"}),
+               std::invalid_argument);
+  EXPECT_THROW(m.InsertOnOutput("load.omega", "brake", std::make_shared<Gain>(), {"brake"}),
+               std::invalid_argument);
+  ASSERT_EQ(m.Blocks().size(), 2u);
+  EXPECT_EQ(m.Blocks()[0].inputs, std::vector<std::string>{"u"});
+  EXPECT_EQ(m.Blocks()[1].inputs, std::vector<std::string>{"load.omega"});
+  EXPECT_EQ(m.Outputs()[0].second, "load.omega");
+  EXPECT_EQ(m.parameters().size(), 2u);
+}
+
+// The registry-type overloads of the insert operations create the block from the registry.
+TEST(Model, InsertOverloadsWithATypeCreateTheBlockFromTheRegistry) {
+  Model m = BrakedInertia();
+  BlockOptions unit;
+  unit.words["unit"] = "rad/s";
+  m.InsertOnOutput("load.omega", "offset", "sensor.offset", unit, {"brake"});
+  m.InsertForReaders("u", "deadzone", "actuator.deadzone", {}, {"load"});
+  ASSERT_EQ(m.Blocks().size(), 4u);
+  EXPECT_EQ(m.Blocks()[2].type, "sensor.offset");
+  EXPECT_EQ(m.Blocks()[1].inputs, std::vector<std::string>{"offset.out"});
+  EXPECT_EQ(m.Blocks()[0].inputs, std::vector<std::string>{"deadzone.out"});
+  EXPECT_EQ(m.Parameter("deadzone.b").value, 0.0);  // neutral
+}
+
 TEST(Model, UnknownSignalIsReportedWithASuggestion) {
   Model m("typo");
   m.AddInput("u", "N m");

@@ -181,7 +181,10 @@ class Model {
 
   /// Puts a one-input one-output block in series on `signal`: the block reads `signal`, its
   /// output is the new signal "<instance>.out", and every block input and model output that read
-  /// `signal` reads "<instance>.out" instead. Parameters start at their neutral values.
+  /// `signal` reads "<instance>.out" instead. Parameters start at their neutral values. The
+  /// overloads with a type string create the block from the global registry. The insert
+  /// operations throw std::invalid_argument, leaving the model unchanged, for an unknown signal,
+  /// a block with the wrong number of connections, or an instance name AddBlock rejects.
   void InsertOnSignal(const std::string& signal, const std::string& instance,
                       std::shared_ptr<const Block> block);
   void InsertOnSignal(const std::string& signal, const std::string& instance,
@@ -197,6 +200,9 @@ class Model {
   void InsertOnOutput(const std::string& output, const std::string& instance,
                       std::shared_ptr<const Block> block,
                       const std::vector<std::string>& readers = {});
+  void InsertOnOutput(const std::string& output, const std::string& instance,
+                      const std::string& type, const BlockOptions& options,
+                      const std::vector<std::string>& readers = {});
 
   /// Puts a one-input one-output block in series on `signal` for the block instances `readers`
   /// only (an actuator error on the command one block acts on): the block reads `signal`, and
@@ -208,6 +214,10 @@ class Model {
   /// 1 output.
   void InsertForReaders(const std::string& signal, const std::string& instance,
                         std::shared_ptr<const Block> block, const std::vector<std::string>& readers,
+                        const std::vector<std::string>& extra_inputs = {});
+  void InsertForReaders(const std::string& signal, const std::string& instance,
+                        const std::string& type, const BlockOptions& options,
+                        const std::vector<std::string>& readers,
                         const std::vector<std::string>& extra_inputs = {});
 
   /// Declares an output (a measured channel) as a signal name.
@@ -252,6 +262,8 @@ class Model {
     SignalInfo info;
   };
   const Instance* FindInstance(const std::string& name) const;
+  // Throws std::invalid_argument unless `instance` is a valid name no instance has yet.
+  void CheckNewInstance(const std::string& instance) const;
 
   std::string name_;
   std::vector<Input> inputs_;

@@ -38,7 +38,8 @@
 // dead zone in the drive that reads a controller output the data also log), and InsertOnOutput()
 // for a measured channel only (a sensor offset: the physics keeps reading the true signal, the
 // channel keeps its name). These are what the sim-to-real gap diagnosis does for every candidate
-// effect.
+// effect; augmentation.h states each of them as data (Augmentation, ApplyAugmentation), which a
+// problem file writes as a [[model.augment]] table.
 #pragma once
 
 #include <memory>

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <utility>
 
+#include "graybox/models/augmentation.h"
 #include "graybox/models/block.h"
 #include "problem/problem_file_internal.h"
 
@@ -197,11 +198,99 @@ void ApplyParameter(const Section& parameters, const std::string& key, const std
   if (free) par->free = *free;
 }
 
+// A block created from the registry for the table `b` (keys "type" and "options"): an unknown
+// type is reported at "type" with a suggestion, a bad option at "options".
+std::shared_ptr<const models::Block> CreateBlock(const Section& b, const std::string& type,
+                                                 const models::BlockOptions& options) {
+  try {
+    return models::BlockRegistry::Global().Create(type, options);
+  } catch (const std::invalid_argument& e) {
+    const auto types = models::BlockRegistry::Global().Types();
+    const bool known = std::find(types.begin(), types.end(), type) != types.end();
+    b.Fail(known && b.Has("options") ? "options" : "type", e.what());
+  }
+}
+
+// One [[model.augment]] table, applied to problem->model (problem-format.md, "Augmentations").
+// The placement is exactly one of inputs + outputs (add), on_signal, on_output (with optional
+// readers) and for_readers = {signal, readers, extra_inputs}.
+void ParseAugmentation(const Section& t, Problem* problem) {
+  using Kind = models::Augmentation::Kind;
+  t.Allow({"instance", "type", "options", "inputs", "outputs", "on_signal", "on_output", "readers",
+           "for_readers"});
+  models::Augmentation a;
+  a.instance = t.RequiredString("instance");
+  a.type = t.RequiredString("type");
+  const std::string label = "augmentation '" + a.instance + "': ";
+  if (auto o = t.Sub("options")) a.options = ParseBlockOptions(*o);
+  std::vector<std::string> given;
+  if (t.Has("inputs") || t.Has("outputs")) given.push_back(t.Has("inputs") ? "inputs" : "outputs");
+  for (const char* key : {"on_signal", "on_output", "for_readers"}) {
+    if (t.Has(key)) given.push_back(key);
+  }
+  const std::string expected =
+      "expected exactly one of 'inputs' and 'outputs' (add the block), 'on_signal', 'on_output' "
+      "or 'for_readers'";
+  if (given.empty()) t.Fail("", label + "missing placement: " + expected + ", got none of them");
+  if (given.size() > 1) {
+    t.Fail(given[1], label + expected + ", got both '" + given[0] + "' and '" + given[1] + "'");
+  }
+  if (t.Has("readers") && given[0] != "on_output") {
+    t.Fail("readers", label + "'readers' goes with 'on_output'" +
+                          (given[0] == "for_readers"
+                               ? "; with 'for_readers' the readers are inside its table, "
+                                 "for_readers = { signal = ..., readers = [...] }"
+                               : ": expected it left out with '" + given[0] + "'"));
+  }
+  std::optional<Section> fr;
+  if (given[0] == "inputs" || given[0] == "outputs") {
+    a.kind = Kind::kAdd;
+    a.inputs = t.Strings("inputs");
+    a.outputs = t.Strings("outputs");
+  } else if (given[0] == "on_signal") {
+    a.kind = Kind::kOnSignal;
+    a.signal = t.RequiredString("on_signal");
+  } else if (given[0] == "on_output") {
+    a.kind = Kind::kOnOutput;
+    a.signal = t.RequiredString("on_output");
+    a.readers = t.Strings("readers");
+  } else {
+    a.kind = Kind::kForReaders;
+    fr = t.Sub("for_readers");
+    fr->Allow({"signal", "readers", "extra_inputs"});
+    a.signal = fr->RequiredString("signal");
+    if (!fr->Has("readers")) {
+      fr->Fail("", label + "missing key 'readers': expected the block instances that read '" +
+                       a.signal + "' and are to read the block's output instead");
+    }
+    a.readers = fr->Strings("readers");
+    a.extra_inputs = fr->Strings("extra_inputs");
+  }
+  try {
+    models::ApplyAugmentation(&problem->model, a);
+  } catch (const models::AugmentationError& e) {
+    // The key the defective field came from.
+    const std::string& field = e.field();
+    const Section* where = &t;
+    std::string key = field;
+    if (field == "options" && !t.Has("options")) key = "type";
+    if (field == "signal") key = a.kind == Kind::kForReaders ? "signal" : given[0];
+    if (a.kind == Kind::kForReaders &&
+        (field == "signal" || field == "readers" || field == "extra_inputs")) {
+      where = &*fr;
+    }
+    const std::string shown = where == &t ? key : "for_readers." + key;
+    where->Fail(where->Has(key) ? key : "", label + "'" + shown + "': " + e.reason());
+  }
+  problem->augmentations.push_back(a);
+  problem->blocks.emplace_back(a.instance, a.type);
+}
+
 void ParseModel(const Section& root, Problem* problem) {
   auto model = root.Sub("model");
   if (!model) root.Fail("", "missing table [model]: expected the model description");
   const Section& m = *model;
-  m.Allow({"name", "inputs", "blocks", "outputs", "parameters"});
+  m.Allow({"name", "inputs", "blocks", "outputs", "augment", "parameters"});
   problem->model = models::Model(m.String("name").value_or(problem->name));
   for (const Section& in : m.SubArray("inputs")) {
     in.Allow({"name", "unit", "description", "min", "max"});
@@ -224,14 +313,7 @@ void ParseModel(const Section& root, Problem* problem) {
     const std::string type = b.RequiredString("type");
     models::BlockOptions options;
     if (auto o = b.Sub("options")) options = ParseBlockOptions(*o);
-    std::shared_ptr<const models::Block> block;
-    try {
-      block = models::BlockRegistry::Global().Create(type, options);
-    } catch (const std::invalid_argument& e) {
-      const auto types = models::BlockRegistry::Global().Types();
-      const bool known = std::find(types.begin(), types.end(), type) != types.end();
-      b.Fail(known && b.Has("options") ? "options" : "type", e.what());
-    }
+    const std::shared_ptr<const models::Block> block = CreateBlock(b, type, options);
     const std::vector<std::string> inputs = b.Strings("inputs");
     const std::vector<std::string> outputs = b.Strings("outputs");
     try {
@@ -244,6 +326,9 @@ void ParseModel(const Section& root, Problem* problem) {
   const std::vector<std::string> outputs = m.Strings("outputs");
   if (outputs.empty()) m.Fail("", "missing key 'outputs': expected the measured output signals");
   for (const auto& o : outputs) problem->model.AddOutput(o);
+  // Augmentations after every block and output, before the parameter settings (which may set,
+  // free or fix the new parameters).
+  for (const Section& a : m.SubArray("augment")) ParseAugmentation(a, problem);
   if (auto parameters = m.Sub("parameters")) {
     // Patterns ('*' matches any run of characters) first, then exact names, which override.
     std::map<std::string, std::string> matched_by;

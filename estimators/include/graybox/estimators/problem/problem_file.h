@@ -11,7 +11,11 @@
 //   [problem]      name, description
 //   [model]        name, inputs (name, unit), [[model.blocks]] (instance, type, options, inputs,
 //                  outputs: exactly models::Model::AddBlock), outputs (signal names),
-//                  [model.parameters."<instance>.<param>"] value / lower / upper / free / scale
+//                  [[model.augment]] (instance, type, options and one placement: inputs +
+//                  outputs, on_signal, on_output + readers, or for_readers = {signal, readers,
+//                  extra_inputs}: exactly models::Augmentation, applied by ApplyAugmentation;
+//                  augmentation_toml.h writes one), [model.parameters."<instance>.<param>"]
+//                  value / lower / upper / free / scale
 //   [[data]]       name, file (relative to the problem file), format (mat | csv), sample_time or
 //                  time (a variable), inputs / outputs: model signal -> variable (with scale,
 //                  column / row, rate = forward difference, or a constant), splits with roles,
@@ -52,6 +56,7 @@
 #include "graybox/estimators/integrators/integrator_factory.h"
 #include "graybox/estimators/nlp/regularization.h"
 #include "graybox/estimators/solvers/solvers.h"
+#include "graybox/models/augmentation.h"
 #include "graybox/models/model.h"
 
 namespace graybox::estimators {
@@ -255,8 +260,12 @@ struct Problem {
   /// The model with the file's parameter settings applied, and its built form.
   models::Model model = models::Model("model");
   models::StateSpaceModel built;
-  /// Block instance -> registered type, in file order.
+  /// Block instance -> registered type, in file order: the [[model.blocks]], then the
+  /// [[model.augment]] instances.
   std::vector<std::pair<std::string, std::string>> blocks;
+  /// The [[model.augment]] tables, in file order, as applied to `model` (after every block and
+  /// output, before [model.parameters]).
+  std::vector<models::Augmentation> augmentations;
   std::vector<DataSpec> data;
   EstimationSpec estimation;
   MetricsSpec metrics;

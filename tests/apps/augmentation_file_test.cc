@@ -3,8 +3,8 @@
 // neutral values and changes it once its parameter moves; [model.parameters] sets, frees and fixes
 // the new parameters; AugmentationToml reads back to an equal augmentation and the same
 // connections; defects name the file, the table with its index, the key's line and what was
-// expected and found; and `graybox fit` runs an augmented problem warm-started from the nominal
-// result.
+// expected and found; the documentation's examples apply to the shipped problems; and `graybox
+// fit` runs an augmented problem warm-started from the nominal result.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -457,6 +457,71 @@ TEST_F(AugmentedProblem, FitRunsTheAugmentedProblemFromTheNominalResult) {
                                dir_ / "log3.txt", dir_.path().string());
   EXPECT_EQ(back.exit_code, 2) << back.output;
   EXPECT_TRUE(Contains(back.output, "'friction.fv' is not a parameter")) << back.output;
+}
+
+// The examples of docs/problem-format.md "Augmentations" on the shipped problems they name.
+TEST(AugmentationDocs, ExamplesApplyToTheShippedProblems) {
+  const std::string root = std::string(GRAYBOX_SOURCE_DIR);
+  const std::string doc = apps_testing::ReadText(root + "/docs/problem-format.md");
+  const std::size_t section = doc.find("### Augmentations");
+  ASSERT_NE(section, std::string::npos);
+  std::vector<std::string> examples;  // the ```toml fences of the section
+  const std::size_t end = doc.find("\n### ", section + 1);
+  for (std::size_t at = doc.find("```toml\n", section); at < end;
+       at = doc.find("```toml\n", at + 1)) {
+    const std::size_t body_end = doc.find("```", at + 8);
+    examples.push_back(doc.substr(at + 8, body_end - at - 8));
+  }
+  ASSERT_EQ(examples.size(), 2u);
+  // Coulomb friction on the diagnosis's nominal model is emps_closed_loop.toml again.
+  const std::string no_coulomb_path = root + "/problems/emps/emps_closed_loop_no_coulomb.toml";
+  std::string text = apps_testing::ReadText(no_coulomb_path);
+  text.replace(text.find("[model.parameters]\n"), 19,
+               "[model.parameters]\n"
+               "\"coulomb.fc\" = { value = 15.0, upper = 1000.0, scale = 10.0 }\n");
+  const Problem augmented = ParseProblem(text + "\n" + examples[0], no_coulomb_path);
+  const Problem shipped = LoadProblem(root + "/problems/emps/emps_closed_loop.toml");
+  auto sorted = [](std::vector<std::pair<std::string, std::string>> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  EXPECT_EQ(sorted(augmented.blocks), sorted(shipped.blocks));
+  ASSERT_EQ(augmented.built.NumParameters(), shipped.built.NumParameters());
+  for (const auto& a : shipped.built.parameters) {
+    const auto& b = augmented.built.parameters[augmented.built.ParameterIndex(a.name)];
+    EXPECT_EQ(a.value, b.value) << a.name;
+    EXPECT_EQ(a.free, b.free) << a.name;
+    EXPECT_EQ(a.lower, b.lower) << a.name;
+    EXPECT_EQ(a.upper, b.upper) << a.name;
+    EXPECT_EQ(a.scale, b.scale) << a.name;
+  }
+  for (const auto& c : shipped.model.Blocks()) {
+    for (const auto& d : augmented.model.Blocks()) {
+      if (d.instance != c.instance) continue;
+      EXPECT_EQ(d.inputs, c.inputs) << c.instance;
+      EXPECT_EQ(d.outputs, c.outputs) << c.instance;
+    }
+  }
+  // The delay on a KUKA torque, the sensor offset and the dead zone on EMPS: the second example
+  // holds all three; each applies to the problem it names.
+  const std::string second = examples[1];
+  const std::size_t emps_part = second.find("[[model.augment]]\ninstance = \"sensor_offset\"");
+  ASSERT_NE(emps_part, std::string::npos);
+  const Problem emps = ParseProblem(
+      apps_testing::ReadText(no_coulomb_path) + "\n" + second.substr(emps_part), no_coulomb_path);
+  ASSERT_EQ(emps.augmentations.size(), 2u);
+  EXPECT_EQ(emps.model.Outputs()[0].second, "sensor_offset.out");
+  // The KUKA problem guesses its shooting nodes from the data, which cannot give the delay's
+  // state: rejected naming it, and accepted with node_guess = "simulation" (as documented).
+  const std::string kuka_path = root + "/problems/kuka/roblue_friction_ms.toml";
+  std::string kuka_text = apps_testing::ReadText(kuka_path) + "\n" + second.substr(0, emps_part);
+  const ProblemFileError e = ErrorOf([&] { ParseProblem(kuka_text, kuka_path); });
+  EXPECT_TRUE(Contains(e.what(), "state 'input_delay.x'")) << e.what();
+  const std::string data_guess = "node_guess = \"data\"";
+  kuka_text.replace(kuka_text.find(data_guess), data_guess.size(), "node_guess = \"simulation\"");
+  const Problem kuka = ParseProblem(kuka_text, kuka_path);
+  ASSERT_EQ(kuka.augmentations.size(), 1u);
+  EXPECT_EQ(kuka.model.Blocks()[0].inputs[0], "input_delay.out");
 }
 
 }  // namespace

@@ -16,8 +16,8 @@ namespace {
 double AxisInertia(const std::string& type, const BlockOptions& options) {
   if (!HasNumber(options, "axis_inertia")) {
     throw std::invalid_argument("block '" + type +
-                                "': option 'axis_inertia' (the inertia of the body the load is "
-                                "added to, > 0) is required");
+                                "': option 'axis_inertia' is required: expected the inertia M of "
+                                "the body on the axis (a number > 0), got none");
   }
   return PositiveOption(type, options, "axis_inertia", 1.0);
 }
@@ -27,8 +27,11 @@ bool IsPrismatic(const std::string& type, const BlockOptions& options) {
          "prismatic";
 }
 
+// Typical magnitude of a net force [N m] or [N] (the range of F and F_eff in loads.h).
+constexpr double kTypicalForce = 10.0;
+
 SignalInfo NetForce(const char* name, const char* description) {
-  SignalInfo s{name, "N m", description, -10.0, 10.0};
+  SignalInfo s{name, "N m", description, -kTypicalForce, kTypicalForce};
   s.role = SignalRole::kForce;
   return s;
 }
@@ -109,6 +112,58 @@ class Payload : public BlockBase<Payload> {
   bool prismatic_ = false;
 };
 
+// ---- mechanics.elastic_coupling -----------------------------------------------------------------
+// Lower bounds of J and K relative to M and K_0 (loads.h).
+constexpr double kMinInertiaFraction = 1e-6;
+constexpr double kMinStiffnessFraction = 1e-6;
+
+class ElasticCoupling : public BlockBase<ElasticCoupling> {
+ public:
+  explicit ElasticCoupling(const BlockOptions& options) {
+    CheckOptionKeys(kElasticCoupling, options, {"axis_inertia", "motion", "frequency"});
+    axis_inertia_ = AxisInertia(kElasticCoupling, options);
+    const double f0 =
+        PositiveOption(kElasticCoupling, options, "frequency", kDefaultCouplingFrequency);
+    const double m = axis_inertia_;
+    const double j = kDefaultCouplingInertiaRatio * m;
+    const double j_eff = 1.0 / (1.0 / j + 1.0 / m);
+    const double omega = 2.0 * kPi * f0;
+    const double k = omega * omega * j_eff;
+    const double c = 2.0 * kDefaultCouplingDamping * std::sqrt(k * j_eff);
+    const double e_typical = kTypicalForce / k;
+    info_.type = kElasticCoupling;
+    info_.description =
+        "Elastic coupling: a motor-side inertia J driven by the net force F, joined to the body "
+        "(inertia M) by a spring K and damper c; the body reads F_c = K e + c ed.";
+    info_.reference = "two-mass axis, Newton's second law on each side of the spring (loads.h)";
+    info_.states = {
+        {"e", "rad", "deflection q_m - q (motor side minus body)", -e_typical, e_typical},
+        {"ed", "rad/s", "deflection rate qd_m - qd", -omega * e_typical, omega * e_typical}};
+    info_.inputs = {NetForce("F", "net force on the axis, now acting on the motor side")};
+    info_.outputs = {NetForce("F_c", "coupling force K e + c ed the body reads")};
+    info_.parameters = {
+        MakeParameter("J", "kg m^2", "motor-side inertia", j, kMinInertiaFraction * m, kInf),
+        MakeParameter("K", "N m/rad", "coupling stiffness", k, kMinStiffnessFraction * k, kInf),
+        MakeParameter("c", "N m s/rad", "coupling damping", c, 0.0, kInf)};
+    ApplyMotionUnits(kElasticCoupling, options, &info_);
+  }
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    const Scalar& e = a.x[0];
+    const Scalar& ed = a.x[1];
+    const Scalar& j = a.p[0];
+    const Scalar& k = a.p[1];
+    const Scalar& c = a.p[2];
+    const Scalar f_c = k * e + c * ed;
+    a.xdot[0] = ed;
+    a.xdot[1] = (a.u[0] - f_c) / j - f_c / axis_inertia_;
+    a.y[0] = f_c;
+  }
+
+ private:
+  double axis_inertia_ = 1.0;
+};
+
 template <typename T>
 BlockFactory Factory() {
   return [](const BlockOptions& options) -> std::unique_ptr<Block> {
@@ -123,6 +178,7 @@ void RegisterLoadBlocks(BlockRegistry& registry) {
   test.numbers["axis_inertia"] = {0.5};
   registry.Register(kAddedInertia, Factory<AddedInertia>(), test);
   registry.Register(kPayload, Factory<Payload>(), test);
+  registry.Register(kElasticCoupling, Factory<ElasticCoupling>(), test);
 }
 
 }  // namespace graybox::models::internal

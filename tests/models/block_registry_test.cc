@@ -226,7 +226,7 @@ TEST(BlockRegistry, FixedByDefaultAreExactlyTheControllerSettings) {
                                           "control.cascade_p.limit"}));
 }
 
-// The physical roles of the mechanical axis signals of the friction, mechanics, drive and
+// The physical roles of the mechanical axis signals of the friction, mechanics, load, drive and
 // pneumatic blocks (with the shared tests' options). Every signal of these blocks not listed here
 // must have no role.
 TEST(BlockRegistry, AxisSignalsOfMechanicalBlocksHaveTheirRoles) {
@@ -272,6 +272,8 @@ TEST(BlockRegistry, AxisSignalsOfMechanicalBlocksHaveTheirRoles) {
         {{"theta", R::kPosition}, {"omega", R::kVelocity}, {"i", R::kCurrent}},
         {{"theta", R::kPosition}, {"omega", R::kVelocity}, {"i", R::kCurrent}}}},
       {"drive.backlash", {}},  // a deflection is not an axis position
+      // e and ed are a deflection and its rate: no role, so the diagnosis finds no new axis.
+      {"mechanics.elastic_coupling", {{{"F", R::kForce}}, {{"F_c", R::kForce}}, {}}},
       {"pneumatic.orifice", {{{"p_up", R::kPressure}, {"p_down", R::kPressure}}, {}, {}}},
       {"pneumatic.chamber", {{}, {}, {{"p", R::kPressure}}}},
       {"pneumatic.ports", {{{"p", R::kPressure}}, {}, {}}},

@@ -265,11 +265,44 @@ FitResult FitSession::Solve(const FitResult* start) {
   }
   // Solve.
   WarmStart warm;
+  bool warm_primal = same_structure;
   if (same_structure) {
     warm = start->solver_result.AsWarmStart();
     for (const auto& [i, v] : s.pending_starts) {
       const int k = s.VariableOf(i);
       if (k >= 0) warm.w[k] = v / f.map->scale[k];
+    }
+  } else if (start != nullptr) {
+    // Another free set, the same method variables (shooting nodes, initial states, collocation
+    // states) and constraints: those values and multipliers are carried over, the parameters
+    // start at the earlier estimates (above) with their bound multipliers where they were free
+    // before (0 for the newly freed).
+    std::vector<int> start_position(m.NumParameters(), -1);  // variable index in the start
+    int start_free = 0;
+    for (std::size_t i = 0; i < start->parameters.size() && i < start_position.size(); ++i) {
+      if (start->parameters[i].free) start_position[i] = start_free++;
+    }
+    const Eigen::Index n = nlp.NumVariables(), other = n - f.map->NumFree();
+    const WarmStart before = start->solver_result.AsWarmStart();
+    if (other > 0 && before.w.size() - start_free == other && before.w.tail(other).allFinite()) {
+      warm.w = nlp.w0();
+      warm.w.tail(other) = before.w.tail(other);
+      warm_primal = true;
+      if (before.lambda.size() == nlp.NumConstraints() &&
+          before.z_lower.size() == before.w.size() && before.z_upper.size() == before.w.size()) {
+        warm.lambda = before.lambda;
+        warm.z_lower = Eigen::VectorXd::Zero(n);
+        warm.z_upper = Eigen::VectorXd::Zero(n);
+        warm.z_lower.tail(other) = before.z_lower.tail(other);
+        warm.z_upper.tail(other) = before.z_upper.tail(other);
+        for (int k = 0; k < f.map->NumFree(); ++k) {
+          const int r = start_position[f.map->free[k]];
+          if (r >= 0) {
+            warm.z_lower[k] = before.z_lower[r];
+            warm.z_upper[k] = before.z_upper[r];
+          }
+        }
+      }
     }
   }
   const EstimationSpec& spec = problem.estimation;
@@ -282,7 +315,9 @@ FitResult FitSession::Solve(const FitResult* start) {
   s.Progress("  solving with " + spec.solver + " (" + std::to_string(nlp.NumVariables()) +
              " variables, " + std::to_string(nlp.NumConstraints()) + " constraints, " +
              std::to_string(nlp.NumResiduals()) + " residuals)" +
-             (same_structure ? ", warm-started" : ""));
+             (same_structure ? ", warm-started"
+              : warm_primal  ? ", primal warm start"
+                             : ""));
   t = Timer();
   {
     Heartbeat heartbeat(s.options.progress, s.options.progress_interval_seconds, spec.solver);
@@ -290,8 +325,8 @@ FitResult FitSession::Solve(const FitResult* start) {
     ipopt.callback = record;
     ceres.callback = record;
     result.solver_result = spec.solver == "ceres"
-                               ? SolveWithCeres(nlp, ceres, same_structure ? &warm : nullptr)
-                               : SolveWithIpopt(nlp, ipopt, same_structure ? &warm : nullptr);
+                               ? SolveWithCeres(nlp, ceres, warm_primal ? &warm : nullptr)
+                               : SolveWithIpopt(nlp, ipopt, warm_primal ? &warm : nullptr);
   }
   result.seconds.emplace_back("solve", t.Seconds());
   s.Progress("  " + result.solver_result.BriefReport());
@@ -326,8 +361,14 @@ FitResult FitSession::Solve(const FitResult* start) {
     p.std_error = p.free ? std::nan("") : 0.0;
     p.ci_low = p.ci_high = p.value;
     if (p.free) {
-      const double tol = 1e-6 * std::max(std::fabs(mp.scale), 1e-300);
-      p.at_bound = std::fabs(p.value - p.lower) <= tol || std::fabs(p.value - p.upper) <= tol;
+      // Within 1e-6 of the parameter's scale or of the bound's magnitude (a Stribeck velocity of
+      // scale 0.17 at 999.999 of its bound 1000 is at the bound).
+      auto near = [&](double bound) {
+        return std::isfinite(bound) &&
+               std::fabs(p.value - bound) <=
+                   1e-6 * std::max({std::fabs(mp.scale), std::fabs(bound), 1e-300});
+      };
+      p.at_bound = near(p.lower) || near(p.upper);
       p.ci_low = p.ci_high = std::nan("");
     }
     if (result.has_uncertainty) {

@@ -207,7 +207,10 @@ class FitSession {
   /// when the session was built).
   void FreeParameter(const std::string& name);
   /// Solves from the current starting point, or warm-started from an earlier result of this
-  /// session (primal point and multipliers; the parameter values set since then win).
+  /// session (primal point and multipliers; the parameter values set since then win). After
+  /// FixParameter / FreeParameter changed the free set, the start's parameter estimates and its
+  /// method variables (shooting nodes, initial states, collocation states) are the start, with
+  /// the constraint multipliers (the newly freed parameters' bound multipliers at 0).
   FitResult Solve(const FitResult* start = nullptr);
 
   /// The problem as the session currently holds it (parameter values and free flags).

@@ -273,7 +273,17 @@ int RunBenchWithheld(const CommandOptions& o) {
     std::cout << "confusion (rows: withheld, columns: top-ranked):\n"
               << b.ConfusionTable() << b.Summary();
     namespace fs = std::filesystem;
-    fs::create_directories(o.out);
+    fs::create_directories(fs::path(o.out) / "cases");
+    for (const bench::WithheldRecord& r : b.records) {
+      if (r.diagnosis_json.empty()) continue;
+      std::string file = r.name;
+      for (std::size_t p = file.find('/'); p != std::string::npos; p = file.find('/', p)) {
+        file.replace(p, 1, "__");
+      }
+      WriteFileAtomically((fs::path(o.out) / "cases" / (file + ".json")).string(),
+                          r.diagnosis_json);
+    }
+    // bench.json last: a reader that finds it finds every case's diagnosis too.
     WriteFileAtomically((fs::path(o.out) / "bench.json").string(),
                         bench::WithheldBenchJson(b, RunMetadata(o)));
     Progress("wrote " + (fs::path(o.out) / "bench.json").string());

@@ -9,9 +9,11 @@
 #include <map>
 #include <set>
 #include <sstream>
+
 #include <stdexcept>
 #include <string>
 #include <vector>
+#include "graybox/diagnosis/report_json.h"
 
 #include <nlohmann/json.hpp>
 
@@ -63,6 +65,7 @@ WithheldRecord Run(const WithheldCase& c, const diagnosis::DiagnoseOptions& opti
     }
     r.explained = d.explained;
     r.verdict = d.verdict;
+    r.diagnosis_json = diagnosis::DiagnosisJson(d, {{"case", c.name}});
     r.nominal_validation_nrmse = d.nominal_validation_nrmse;
     r.final_validation_nrmse = d.final_validation_nrmse;
     r.reference_validation_nrmse = d.reference.validation_nrmse;

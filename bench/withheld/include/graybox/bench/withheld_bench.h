@@ -80,6 +80,10 @@ struct WithheldRecord {
   std::string verdict;
   std::string failure;
   double seconds = 0.0;
+  /// The case's whole diagnosis, as diagnosis.json (diagnosis::DiagnosisJson); empty when the
+  /// diagnosis could not run. `graybox bench withheld` writes it to DIR/cases/<case>.json (the
+  /// case name with '/' as '__').
+  std::string diagnosis_json;
 };
 
 struct WithheldBench {

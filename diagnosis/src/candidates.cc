@@ -336,7 +336,8 @@ RigidBody FindRigidBody(const estimators::Problem& problem, const MechanicalAxis
 
 // rotor_inertia and payload (file comment).
 void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bool inertia,
-              bool payload, std::set<std::string>* taken, std::vector<Candidate>* out) {
+              bool payload, bool elasticity, std::set<std::string>* taken,
+              std::vector<Candidate>* out) {
   const RigidBody body = FindRigidBody(problem, axis);
   if (body.instance.empty()) return;
   const double mass_now = problem.built.parameters[problem.built.ParameterIndex(body.mass)].value;
@@ -359,8 +360,26 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
       variants.push_back({"payload", models::kPayload, "rotational", 0.0});
     }
   }
+  // Controllers reading the axis position: the elastic variant with the loop closed on the motor
+  // side reads q + e there.
+  std::vector<std::string> controllers;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.type.rfind("control.", 0) == 0 && !axis.position.empty() &&
+        std::find(b.inputs.begin(), b.inputs.end(), axis.position) != b.inputs.end()) {
+      controllers.push_back(b.instance);
+    }
+  }
+  if (elasticity) {
+    variants.push_back(
+        {"elasticity", models::kElasticCoupling, "two-mass, force on the motor side", 0.0});
+    if (!controllers.empty()) {
+      variants.push_back({"elasticity", models::kElasticCoupling,
+                          "two-mass, force and feedback on the motor side", 0.0});
+    }
+  }
   for (const Variant& var : variants) {
     const bool is_payload = var.effect == "payload";
+    const bool is_elastic = var.effect == "elasticity";
     const bool prismatic = axis.prismatic;
     const double gravity = var.gravity;
     auto options = [prismatic, is_payload, gravity](double mass) {
@@ -375,6 +394,18 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
     c.attachment = "force " + axis.force + " -> " + body.instance +
                    (is_payload ? ", position " + axis.position : "");
     c.instance = FreshInstance(problem.model, var.effect, taken);
+    if (is_payload && !prismatic && !body.mass_free) c.reduces_to.push_back("rotor_inertia");
+    if (is_elastic) {
+      // No score test; the stiffness profiled over modes at 1, 2, 4 and 8 % of the sample rate
+      // (K = (2 pi f)^2 J_eff, J_eff = J M / (J + M) = M / 5 at the nominal J = M / 4).
+      c.structural = true;
+      std::vector<double> factors;
+      for (const double f : {0.01, 0.02, 0.04, 0.08}) {
+        factors.push_back(std::pow(2.0 * M_PI * f, 2) * 0.2 * mass_now);
+      }
+      c.shape_grids.push_back(
+          {c.instance + ".K", Candidate::ShapeGrid::Scale::kSampleRateSquared, "", factors});
+    }
     const auto block = models::BlockRegistry::Global().Create(var.type, options(mass_now));
     std::vector<std::string> held = SplitParameters(*block, &c);
     // The payload's rotational inertia next to a free body inertia: held at 0 (gravity only).
@@ -388,12 +419,29 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
                       mass = body.mass, type = var.type;
     const std::vector<std::string> extra =
         is_payload ? std::vector<std::string>{axis.position} : std::vector<std::string>{};
-    c.apply = [options, instance, force, reader, mass, type, extra, held](models::Model* m) {
+    const bool motor_feedback = is_elastic && var.detail.find("feedback") != std::string::npos;
+    if (motor_feedback) c.attachment += ", controller " + Join(controllers) + " on q + e";
+    const std::string position = axis.position;
+    const std::string unit = prismatic ? "m" : "rad";
+    c.apply = [options, instance, force, reader, mass, type, extra, held, motor_feedback, position,
+               controllers, unit](models::Model* m) {
       // The body's inertia as the model has it now (the nominal fit's value in screening).
       const auto b = std::shared_ptr<const models::Block>(
           models::BlockRegistry::Global().Create(type, options(m->Parameter(mass).value)));
       m->InsertForReaders(force, instance, b, {reader}, extra);
       for (const auto& q : held) m->Fix(q);
+      if (motor_feedback) {
+        // The controllers read the motor-side position q + e: a unit gain in series on q for
+        // them, and the deflection e added to its output.
+        BlockOptions g;
+        g.words["input_unit"] = unit;
+        g.words["output_unit"] = unit;
+        m->InsertForReaders(position, instance + "_motor_q", models::kGainBlock, g, controllers);
+        m->Augment(instance + "_deflection", models::kGainBlock, g, {instance + ".e"},
+                   {instance + "_motor_q.out"});
+        m->Fix(instance + "_motor_q.k");
+        m->Fix(instance + "_deflection.k");
+      }
     };
     out->push_back(std::move(c));
   }
@@ -495,23 +543,23 @@ void AddBacklash(const estimators::Problem& problem, std::set<std::string>* take
 }  // namespace
 
 const std::vector<std::string>& AllEffects() {
-  static const std::vector<std::string> all = {"coulomb",
-                                               "asymmetric_friction",
-                                               "stribeck",
-                                               "viscous",
-                                               "power_law_viscous",
-                                               "presliding",
-                                               "input_delay",
-                                               "deadzone",
-                                               "ripple",
-                                               "rotor_inertia",
-                                               "payload",
-                                               "backlash",
-                                               "leakage",
-                                               "polytropic_index",
-                                               "sensor_offset",
-                                               "sensor_scale"};
+  static const std::vector<std::string> all = {
+      "coulomb",       "asymmetric_friction", "stribeck", "viscous", "power_law_viscous",
+      "presliding",    "input_delay",         "deadzone", "ripple",  "rotor_inertia",
+      "payload",       "elasticity",          "backlash", "leakage", "polytropic_index",
+      "sensor_offset", "sensor_scale"};
   return all;
+}
+
+const std::vector<std::string>& DefaultEffects() {
+  static const std::vector<std::string> defaults = [] {
+    std::vector<std::string> d;
+    for (const std::string& e : AllEffects()) {
+      if (e != "elasticity") d.push_back(e);
+    }
+    return d;
+  }();
+  return defaults;
 }
 
 std::string Candidate::Name() const { return effect + " (" + detail + ") on " + attachment; }
@@ -543,6 +591,7 @@ std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
     if (!prismatic && v.info.unit != "rad/s") continue;
     const int state = built.StateIndex(v.info.name);
     std::vector<MechanicalAxis> found;
+    std::vector<std::pair<int, double>> found_rank;
     for (const auto& f : built.signals) {
       if (f.info.role != SignalRole::kForce || f.source == SignalSource::kState) continue;
       // Probe: friction.viscous reading v, writing -F, with fv at 0 and at 1.
@@ -583,12 +632,26 @@ std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
         }
         if (present) axis.present_types.push_back(kind.type);
       }
+      // Whether a block writing F reads v (friction on this axis), and how strongly F acts.
+      int rank = 0;
+      for (const auto& b : problem.model.Blocks()) {
+        if (std::find(f.blocks.begin(), f.blocks.end(), b.instance) != f.blocks.end() &&
+            std::find(b.inputs.begin(), b.inputs.end(), v.info.name) != b.inputs.end()) {
+          rank = 2;
+        }
+      }
+      if (rank == 2 && !axis.present_types.empty()) rank = 3;
       found.push_back(axis);
+      found_rank.push_back({rank, std::fabs(change)});
     }
     if (found.empty()) continue;
-    auto chosen = std::find_if(found.begin(), found.end(),
-                               [](const MechanicalAxis& a) { return !a.present_types.empty(); });
-    MechanicalAxis axis = chosen != found.end() ? *chosen : found.front();
+    // The force whose friction block reads v, else one a block reading v writes, else the one
+    // acting most strongly on v (in a coupled multibody every joint torque moves every joint).
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < found.size(); ++k) {
+      if (found_rank[k] > found_rank[best]) best = k;
+    }
+    MechanicalAxis axis = found[best];
     // Inputs feeding the axis directly: dv/dt changes with the input, and no block adds to it.
     const TestPoint t = MakeTestPoint(built, state);
     const double a0 = Acceleration(built, t, state);
@@ -612,7 +675,8 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
                                            const CandidateOptions& options) {
   options.Validate();
   auto wanted = [&](const std::string& effect) {
-    const std::vector<std::string>& list = options.effects.empty() ? AllEffects() : options.effects;
+    const std::vector<std::string>& list =
+        options.effects.empty() ? DefaultEffects() : options.effects;
     return std::find(list.begin(), list.end(), effect) != list.end();
   };
   std::vector<Candidate> out;
@@ -643,10 +707,14 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
         const bool repeats_viscous = (std::string(kind.type) == "friction.stribeck" &&
                                       p.name == "fv" && present("friction.viscous")) ||
                                      (lugre && p.name == "sigma2" && present("friction.viscous"));
+        // Next to a Coulomb term the Stribeck block's own Coulomb level repeats it: held at 0,
+        // the block is the excess fs exp(-(v/vs)^2) sign(v) alone.
+        const bool repeats_coulomb = std::string(kind.type) == "friction.stribeck" &&
+                                     p.name == "fc" && present("friction.coulomb");
         // LuGre's micro-damping and viscous term: at sigma0 = 0, dz/dt = v, so both act as
         // viscous friction there (not a presliding direction); tested by the viscous candidate.
         const bool viscous_at_neutral = lugre && (p.name == "sigma1" || p.name == "sigma2");
-        if (repeats_viscous) {
+        if (repeats_viscous || repeats_coulomb) {
           held.push_back(q);
         } else if (viscous_at_neutral) {
           held.push_back(q);
@@ -659,8 +727,42 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
           c.refit.push_back(q);
         }
       }
+      if (std::string(kind.type) == "friction.stribeck" && !present("friction.coulomb")) {
+        c.reduces_to.push_back("coulomb");
+      }
+      if (std::string(kind.type) == "friction.power_viscous" && !present("friction.viscous")) {
+        c.reduces_to.push_back("viscous");
+      }
+      if (lugre) c.reduces_to.push_back("presliding");
+      if (std::string(kind.type) == "friction.stribeck") {
+        c.shape_grids.push_back({c.instance + ".vs",
+                                 Candidate::ShapeGrid::Scale::kStateRms,
+                                 axis.velocity,
+                                 {0.03, 0.1, 0.3, 1.0}});
+      } else if (std::string(kind.type) == "friction.power_viscous") {
+        c.shape_grids.push_back(
+            {c.instance + ".k", Candidate::ShapeGrid::Scale::kAbsolute, "", {0.3, 0.6, 2.0}});
+      }
       const std::string instance = c.instance, velocity = axis.velocity,
                         connection = axis.connection;
+      if (std::string(kind.type) == "friction.coulomb") {
+        c.option_grids.push_back({"steepness",
+                                  Candidate::ShapeGrid::Scale::kStateRms,
+                                  axis.velocity,
+                                  {5.0, 30.0, 150.0},
+                                  true});
+        const bool prismatic = axis.prismatic;
+        const std::string type = kind.type;
+        c.apply_with_option = [type, prismatic, instance, velocity, connection](models::Model* m,
+                                                                                double steepness) {
+          BlockOptions o = CandidateOptionsFor(type, prismatic);
+          o.numbers["steepness"] = {steepness};
+          m->Augment(
+              instance,
+              std::shared_ptr<const models::Block>(models::BlockRegistry::Global().Create(type, o)),
+              {velocity}, {connection});
+        };
+      }
       c.apply = [block, instance, velocity, connection, held](models::Model* m) {
         m->Augment(instance, block, {velocity}, {connection});
         for (const auto& q : held) m->Fix(q);
@@ -693,6 +795,8 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
         }
         c.refit.push_back(q);
       }
+      c.shape_grids.push_back(
+          {c.instance + ".T", Candidate::ShapeGrid::Scale::kSampleTime, "", {1.0, 2.5, 6.0, 15.0}});
       const std::string instance = c.instance;
       c.apply = [block, instance, input, held](models::Model* m) {
         m->InsertOnSignal(input, instance, block);
@@ -702,7 +806,8 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     }
     if (wanted("deadzone")) AddDeadzones(problem, axis, &taken, &deadzoned, &out);
     if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
-    AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), &taken, &out);
+    AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), wanted("elasticity"),
+             &taken, &out);
   }
   if (wanted("backlash")) AddBacklash(problem, &taken, &out);
   AddChamberEffects(problem, wanted("leakage"), wanted("polytropic_index"), &taken, &out);

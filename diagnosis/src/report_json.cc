@@ -149,6 +149,10 @@ Json RoundJson(const SelectionRound& r) {
     sj["p_value"] = s.p_value;
     sj["restricted_solve"] = s.restricted_solve;
     sj["failure"] = s.failure;
+    sj["one_step"] = s.one_step;
+    Json shape = Json::object();
+    for (const auto& [name, value] : s.shape_start) shape[name] = value;
+    sj["shape_start"] = shape;
     screened.push_back(sj);
   }
   j["screened"] = screened;
@@ -168,6 +172,7 @@ Json RoundJson(const SelectionRound& r) {
     fj["bic"] = f.bic;
     fj["score"] = f.score;
     fj["solver_status"] = f.fit.solver_result.status;
+    fj["stages"] = f.stages;
     fj["parameters"] = ParametersJson(f.parameters);
     refits.push_back(fj);
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -256,6 +257,20 @@ bool ScoreBySimulation(const est::Problem& aug, const std::vector<est::SplitData
     return qtr.head(qr.rank()).squaredNorm();
   };
   const int n_nominal = static_cast<int>(columns.size()) - num_candidate;
+  // The one-step (Gauss-Newton) estimate of the candidate's parameters: the least-squares step of
+  // every column from this point, in parameter units.
+  {
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(J);
+    const Eigen::VectorXd step = qr.solve(r);
+    out->one_step.assign(candidate.screened.size(), kNaN);
+    for (std::size_t j = n_nominal; j < columns.size(); ++j) {
+      const models::ModelParameter& p = m.parameters[columns[j]];
+      const auto at = std::find(candidate.screened.begin(), candidate.screened.end(), p.name);
+      if (at != candidate.screened.end() && step.allFinite()) {
+        out->one_step[at - candidate.screened.begin()] = values[columns[j]] + step[j] * scale[j];
+      }
+    }
+  }
   const double full = decrease(static_cast<int>(columns.size()));
   const double restricted = decrease(n_nominal);
   const double sigma2 = r.squaredNorm() / std::max<Eigen::Index>(1, rows - n_nominal);
@@ -266,15 +281,140 @@ bool ScoreBySimulation(const est::Problem& aug, const std::vector<est::SplitData
   return true;
 }
 
+// The scale of a shape grid (candidates.h): 1, the first estimation split's sample time, or the
+// RMS of a state over the nominal model's simulation of the estimation splits (NaN when that
+// simulation fails or the state is unknown).
+double ShapeScale(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                  const est::FitResult& nominal, const Candidate::ShapeGrid& grid) {
+  using Scale = Candidate::ShapeGrid::Scale;
+  if (grid.scale == Scale::kAbsolute) return 1.0;
+  if (grid.scale == Scale::kSampleRateSquared) {
+    for (const est::SplitData& split : splits) {
+      if (split.role == est::SplitRole::kEstimation) {
+        return 1.0 / (split.experiment.dt * split.experiment.dt);
+      }
+    }
+    return kNaN;
+  }
+  const models::StateSpaceModel& m = problem.built;
+  int state = -1;
+  for (int i = 0; i < m.NumStates(); ++i) {
+    if (m.states[i].name == grid.state) state = i;
+  }
+  double sum = 0.0;
+  Eigen::Index count = 0;
+  for (const est::SplitData& split : splits) {
+    if (split.role != est::SplitRole::kEstimation) continue;
+    const est::Experiment& e = split.experiment;
+    if (grid.scale == Scale::kSampleTime) return e.dt;
+    if (state < 0) return kNaN;
+    const auto it = nominal.initial_states.find(split.name);
+    const Eigen::VectorXd& x0 = it != nominal.initial_states.end() ? it->second : split.setup.x0;
+    const std::unique_ptr<est::Integrator> integrator =
+        est::MakeIntegrator(m, e.dt, problem.estimation.integrator);
+    const est::Trajectory t = integrator->Simulate(x0, e.u, nominal.values);
+    if (!t.ok || !t.x.allFinite()) return kNaN;
+    sum += t.x.col(state).squaredNorm();
+    count += t.x.rows();
+  }
+  return count > 0 ? std::sqrt(sum / count) : kNaN;
+}
+
+// `candidate` with a shape parameter set to `value` after it is applied.
+Candidate WithShape(const Candidate& candidate, const std::string& parameter, double value) {
+  Candidate c = candidate;
+  const std::function<void(models::Model*)> apply = candidate.apply;
+  c.apply = [apply, parameter, value](models::Model* m) {
+    apply(m);
+    m->SetParameter(parameter, value);
+  };
+  return c;
+}
+
 CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitData>& splits,
                      const est::FitResult& nominal, const Candidate& candidate) {
   CandidateScore out;
   out.candidate = candidate;
   out.dof = static_cast<int>(candidate.screened.size());
   try {
+    if (candidate.structural) {
+      // No score test; the grids' values are profiled by the re-fit.
+      out.method = "structural";
+      out.score = out.p_value = kNaN;
+      for (const Candidate::ShapeGrid& grid : candidate.shape_grids) {
+        const double scale = ShapeScale(problem, splits, nominal, grid);
+        if (!(std::isfinite(scale) && scale > 0.0)) continue;
+        const est::Problem aug = AugmentedProblem(problem, nominal, candidate, false);
+        const models::ModelParameter& p =
+            aug.built.parameters[aug.built.ParameterIndex(grid.parameter)];
+        std::vector<double> values;
+        for (const double factor : grid.factors) {
+          const double v = factor * scale;
+          if (v >= p.lower && v <= p.upper) values.push_back(v);
+        }
+        if (!values.empty()) out.shape_grid_values.emplace_back(grid.parameter, values);
+      }
+      return out;
+    }
     if (out.dof == 0) throw std::runtime_error("no parameter with a neutral value to test");
-    const est::Problem aug = AugmentedProblem(problem, nominal, candidate, false);
-    if (ScoreBySimulation(aug, splits, nominal, candidate, &out)) {
+    // Option grids: the score at each value, the best kept.
+    for (const Candidate::OptionGrid& grid : candidate.option_grids) {
+      if (!candidate.apply_with_option) break;
+      Candidate::ShapeGrid g;
+      g.scale = grid.scale;
+      g.state = grid.state;
+      const double scale = ShapeScale(problem, splits, nominal, g);
+      if (!(std::isfinite(scale) && scale > 0.0)) continue;
+      CandidateScore best;
+      best.score = -1.0;
+      double best_value = kNaN;
+      for (const double factor : grid.factors) {
+        const double v = grid.inverse ? factor / scale : factor * scale;
+        Candidate c = out.candidate;
+        const auto apply = candidate.apply_with_option;
+        c.apply = [apply, v](models::Model* m) { apply(m, v); };
+        const est::Problem aug = AugmentedProblem(problem, nominal, c, false);
+        CandidateScore trial = out;
+        trial.candidate = c;
+        if (ScoreBySimulation(aug, splits, nominal, c, &trial) && trial.score > best.score) {
+          best = trial;
+          best_value = v;
+        }
+      }
+      if (std::isfinite(best_value)) {
+        out.candidate = best.candidate;
+        out.shape_start.emplace_back(candidate.instance + " option " + grid.option, best_value);
+      }
+    }
+    // Shape grids: the score at each value, the best kept (its candidate re-fitted from there).
+    for (const Candidate::ShapeGrid& grid : candidate.shape_grids) {
+      const double scale = ShapeScale(problem, splits, nominal, grid);
+      if (!(std::isfinite(scale) && scale > 0.0)) continue;
+      CandidateScore best;
+      best.score = -1.0;
+      double best_value = kNaN;
+      std::vector<double> tried;
+      for (const double factor : grid.factors) {
+        const Candidate c = WithShape(out.candidate, grid.parameter, factor * scale);
+        est::Problem aug = AugmentedProblem(problem, nominal, c, false);
+        const models::ModelParameter& p = aug.model.Parameter(grid.parameter);
+        if (!(factor * scale >= p.lower && factor * scale <= p.upper)) continue;
+        tried.push_back(factor * scale);
+        CandidateScore trial = out;
+        trial.candidate = c;
+        if (ScoreBySimulation(aug, splits, nominal, c, &trial) && trial.score > best.score) {
+          best = trial;
+          best_value = factor * scale;
+        }
+      }
+      if (std::isfinite(best_value)) {
+        out.candidate = best.candidate;
+        out.shape_start.emplace_back(grid.parameter, best_value);
+        out.shape_grid_values.emplace_back(grid.parameter, tried);
+      }
+    }
+    const est::Problem aug = AugmentedProblem(problem, nominal, out.candidate, false);
+    if (ScoreBySimulation(aug, splits, nominal, out.candidate, &out)) {
       out.p_value = ChiSquareSurvival(out.score, out.dof);
       return out;
     }
@@ -342,6 +482,34 @@ void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
   *bic = fit_term + k * std::log(n);
 }
 
+// Whether the fitted dynamics are resolved by the problem's fixed-step integrator: the validation
+// NRMSE again with 4 times the substeps. A fit can exploit the integrator (a decay rate pushed to
+// RK4's stability limit, where the discrete map turns into an integrator); such a fit's validation
+// error changes with the step. Returns the reason when it changes by more than 10 % (relative),
+// else "" (also for CVODES, which controls its own error).
+std::string IntegrationCheck(const est::Problem& aug, const std::vector<est::SplitData>& splits,
+                             const est::FitResult& fit, const std::string& role, double nrmse) {
+  constexpr int kRefinement = 4;
+  constexpr double kTolerance = 0.1;
+  if (aug.estimation.integrator.method != est::IntegrationMethod::kFixedStep) return "";
+  est::Problem fine = aug;
+  fine.estimation.integrator.fixed_step.substeps *= kRefinement;
+  const std::vector<est::SplitData> s = AugmentedSplits(splits, aug.built.NumStates());
+  const double refined =
+      ValidationNrmse(est::Simulate(fine, s, fit.values, fit.initial_states), role);
+  if (std::isfinite(refined) && std::fabs(refined - nrmse) <= kTolerance * nrmse) return "";
+  char line[240];
+  std::snprintf(line, sizeof(line),
+                "the fitted dynamics are not resolved by the integrator: validation NRMSE %.4g "
+                "with the problem's step, %.4g with %d times the substeps",
+                nrmse, refined, kRefinement);
+  return line;
+}
+
+// The re-fit of one candidate, in two stages (see the header): (A) the screened parameters free,
+// started from the score test's one-step estimate (from neutral again when that fails), the shape
+// parameters held; (B) the shape parameters freed too, warm-started from A. B is kept only when
+// it is usable, no freed shape parameter ends at a bound and its cost is not above A's.
 RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
                   const est::FitResult& nominal, const CandidateScore& screened,
                   const std::string& role, double before) {
@@ -357,19 +525,120 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
   out.relative_gain = kNaN;
   out.aic = out.bic = kNaN;
   try {
-    const est::Problem aug = AugmentedProblem(problem, nominal, c, true);
-    out.fit = est::Fit(aug, AugmentedSplits(splits, aug.built.NumStates()));
+    const est::Problem aug = AugmentedProblem(problem, nominal, c, false);
+    est::FitSession session(aug, AugmentedSplits(splits, aug.built.NumStates()));
+    std::vector<double> neutral;
+    neutral.assign(c.screened.size(), 0.0);
+    for (std::size_t i = 0; i < c.screened.size(); ++i) {
+      for (const models::ModelParameter& p : aug.built.parameters) {
+        if (p.name == c.screened[i]) neutral[i] = p.value;
+      }
+    }
+    bool started_one_step = false;
+    if (screened.one_step.size() == c.screened.size()) {
+      for (std::size_t i = 0; i < c.screened.size(); ++i) {
+        const double v = screened.one_step[i];
+        if (!std::isfinite(v)) continue;
+        for (const models::ModelParameter& p : aug.built.parameters) {
+          if (p.name != c.screened[i]) continue;
+          session.SetParameterValue(p.name, std::min(std::max(v, p.lower), p.upper));
+          started_one_step = true;
+        }
+      }
+    }
+    est::FitResult a = session.Solve();
+    if (started_one_step && !a.IsSolutionUsable()) {
+      for (std::size_t i = 0; i < c.screened.size(); ++i) {
+        session.SetParameterValue(c.screened[i], neutral[i]);
+      }
+      a = session.Solve();
+      out.stages.push_back("from the one-step estimate: " + a.solver_result.status +
+                           "; restarted from the neutral values");
+    }
+    // The profile over each shape grid: stage A at every other grid value (a fixed value
+    // changes, so each solve is warm-started from the best so far), the lowest cost kept.
+    for (const auto& [shape, values] : screened.shape_grid_values) {
+      if (!a.IsSolutionUsable()) break;
+      double best_value = a.Parameter(shape).value;
+      const double first = best_value;
+      for (const double v : values) {
+        if (v == first) continue;
+        session.SetParameterValue(shape, v);
+        est::FitResult trial = session.Solve(&a);
+        if (trial.IsSolutionUsable() && trial.solver_result.cost < a.solver_result.cost) {
+          a = std::move(trial);
+          best_value = v;
+        }
+      }
+      session.SetParameterValue(shape, best_value);
+      char line[160];
+      std::snprintf(line, sizeof(line), "%s profiled over %zu grid values: %.4g (score's %.4g)",
+                    shape.c_str(), values.size(), best_value, first);
+      out.stages.push_back(line);
+    }
+    out.fit = std::move(a);
+    std::vector<std::string> shapes;
+    for (const auto& q : c.refit) {
+      if (std::find(c.screened.begin(), c.screened.end(), q) == c.screened.end()) {
+        shapes.push_back(q);
+      }
+    }
+    if (!shapes.empty() && out.fit.IsSolutionUsable()) {
+      for (const auto& q : shapes) session.FreeParameter(q);
+      est::FitResult b = session.Solve(&out.fit);
+      std::string held;
+      if (!b.IsSolutionUsable()) {
+        held = "the re-fit with them free stopped with " + b.solver_result.status;
+      } else if (b.solver_result.cost > out.fit.solver_result.cost * (1.0 + 1e-6)) {
+        char line[200];
+        std::snprintf(line, sizeof(line),
+                      "the re-fit with them free ended at a higher cost (%.6g > %.6g, %s after "
+                      "%d iterations)",
+                      b.solver_result.cost, out.fit.solver_result.cost,
+                      b.solver_result.status.c_str(), b.solver_result.iterations);
+        held = line;
+      } else {
+        for (const auto& q : shapes) {
+          if (b.Parameter(q).at_bound && held.empty()) {
+            held = "the re-fit with them free put " + q + " at a bound";
+          }
+        }
+      }
+      const double a_validation = ValidationNrmse(out.fit.evaluations, role);
+      const double b_validation = ValidationNrmse(b.evaluations, role);
+      if (held.empty() && !(b_validation <= a_validation)) {
+        char line[200];
+        std::snprintf(line, sizeof(line),
+                      "with them free the validation NRMSE is higher (%.4g > %.4g): the freed "
+                      "shape fits the estimation data only",
+                      b_validation, a_validation);
+        held = line;
+      }
+      if (held.empty()) {
+        out.fit = std::move(b);
+        out.stages.push_back("shape parameters freed");
+      } else {
+        out.stages.push_back("shape parameters held (at the nominal or profiled values): " + held);
+      }
+    }
     for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
-    for (const auto& q : c.refit) out.at_bound = out.at_bound || out.fit.Parameter(q).at_bound;
+    for (const auto& q : c.refit) {
+      const est::FitParameter& p = out.fit.Parameter(q);
+      out.at_bound = out.at_bound || (p.free && p.at_bound);
+    }
     InformationCriteria(out.fit, &out.aic, &out.bic);
     out.validation_nrmse_after = ValidationNrmse(out.fit.evaluations, role);
     if (!out.fit.IsSolutionUsable()) {
       out.failure = "solver: " + out.fit.solver_result.status + " " + out.fit.solver_result.message;
+    } else if (!out.fit.solver_result.success) {
+      out.failure = "the solver stopped before converging (" + out.fit.solver_result.status +
+                    " after " + std::to_string(out.fit.solver_result.iterations) + " iterations)";
     } else if (!std::isfinite(out.validation_nrmse_after)) {
       out.failure = "the validation simulation did not finish";
     } else {
-      out.ok = true;
-      out.relative_gain = (before - out.validation_nrmse_after) / before;
+      out.failure = IntegrationCheck(aug, splits, out.fit, role, out.validation_nrmse_after);
+      out.ok = out.failure.empty();
+      if (out.ok) out.relative_gain = (before - out.validation_nrmse_after) / before;
     }
   } catch (const std::exception& e) {
     out.failure = e.what();
@@ -515,6 +784,10 @@ double ChiSquareSurvival(double x, int dof) {
 }
 
 void ScreeningOptions::Validate() const {
+  if (!(nested_margin >= 0.0)) {
+    throw std::invalid_argument("ScreeningOptions.nested_margin: expected >= 0, got " +
+                                std::to_string(nested_margin));
+  }
   if (refit_top < 0) {
     throw std::invalid_argument("ScreeningOptions.refit_top: expected >= 0, got " +
                                 std::to_string(refit_top));
@@ -567,6 +840,10 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
     if (static_cast<int>(to_refit.size()) >= options.refit_top || !std::isfinite(s.score)) break;
     to_refit.push_back(&s);
   }
+  // Structural candidates have no score: each is re-fitted (after the scored ones).
+  for (const CandidateScore& s : d.screened) {
+    if (s.candidate.structural && s.failure.empty()) to_refit.push_back(&s);
+  }
   d.refits.resize(to_refit.size());
   ParallelFor(static_cast<int>(to_refit.size()), options.num_threads, [&](int i) {
     report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +
@@ -584,6 +861,24 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
                      if (std::fabs(ea - eb) <= tie * std::max(ea, eb)) return a.bic < b.bic;
                      return ea < eb;
                    });
+  // Parsimony between nested effects: a re-fit whose effect reduces to a simpler re-fitted one on
+  // the same attachment (Candidate::reduces_to) ranks after it unless it is better by more than
+  // nested_margin of the nominal validation NRMSE.
+  const double margin = options.nested_margin * d.nominal_validation_nrmse;
+  for (std::size_t i = 0; i < d.refits.size(); ++i) {
+    if (group(d.refits[i]) != 0) break;
+    for (std::size_t j = i + 1; j < d.refits.size(); ++j) {
+      const RefitResult& general = d.refits[i];
+      const RefitResult& simple = d.refits[j];
+      const std::vector<std::string>& r = general.candidate.reduces_to;
+      if (group(simple) == 0 && simple.attachment == general.attachment &&
+          std::find(r.begin(), r.end(), simple.effect) != r.end() &&
+          simple.validation_nrmse_after - general.validation_nrmse_after <= margin) {
+        std::rotate(d.refits.begin() + i, d.refits.begin() + j, d.refits.begin() + j + 1);
+        break;
+      }
+    }
+  }
   return d;
 }
 
@@ -630,6 +925,7 @@ std::string Diagnosis::FullReport() const {
                   r.effect.c_str(), r.detail.c_str(), r.validation_nrmse_before,
                   r.validation_nrmse_after, 100.0 * r.relative_gain, r.aic, r.bic, status.c_str());
     o << line;
+    for (const std::string& stage : r.stages) o << "      " << stage << "\n";
     for (const auto& p : r.parameters) {
       std::snprintf(line, sizeof(line), "      %-32s %12.5g +- %-10.3g %s%s\n", p.name.c_str(),
                     p.value, p.std_error, p.unit.c_str(),

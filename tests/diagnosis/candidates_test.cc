@@ -139,8 +139,9 @@ std::vector<std::string> Names(const std::vector<Candidate>& cs) {
   return n;
 }
 
-TEST(Candidates, DefaultSetIsEveryEffect) {
-  EXPECT_EQ(AllEffects().size(), 16u);
+TEST(Candidates, DefaultSetIsEveryEffectButElasticity) {
+  EXPECT_EQ(AllEffects().size(), 17u);
+  EXPECT_EQ(DefaultEffects().size(), 16u);
   std::vector<std::string> effects;
   for (const auto& c : EnumerateCandidates(est::MakeProblem("slide", CommandSlide()))) {
     effects.push_back(c.effect);
@@ -148,6 +149,7 @@ TEST(Candidates, DefaultSetIsEveryEffect) {
   for (const char* e : {"coulomb", "deadzone", "ripple", "sensor_offset", "sensor_scale"}) {
     EXPECT_NE(std::find(effects.begin(), effects.end(), e), effects.end()) << e;
   }
+  EXPECT_EQ(std::find(effects.begin(), effects.end(), "elasticity"), effects.end());
   CandidateOptions bad;
   bad.ripple_periods = {0.0};
   EXPECT_THROW(bad.Validate(), std::invalid_argument);
@@ -308,6 +310,8 @@ void ExpectNeutral(const models::Model& nominal, const std::vector<Candidate>& c
     c.apply(&a);
     const models::StateSpaceModel built = a.Build();
     ASSERT_EQ(built.NumOutputs(), base.NumOutputs()) << c.Name();
+    // A structural candidate has no neutral value (elasticity: the rigid limit is K -> inf).
+    if (c.structural) continue;
     for (const auto& q : c.screened) {
       EXPECT_TRUE(built.parameters[built.ParameterIndex(q)].free) << q;
     }
@@ -556,7 +560,7 @@ Diagnosis Screen(const Truth& truth, bool lugre = false) {
   std::cout << nominal.BriefReport() << "\n";
   EXPECT_TRUE(nominal.IsSolutionUsable());
   ScreeningOptions options;
-  options.candidates.effects = AllEffects();
+  options.candidates.effects = DefaultEffects();
   options.candidates.lugre_presliding = lugre;
   options.refit_top = 1;
   const Diagnosis d = ScreenAndRefit(problem, splits, nominal, options);
@@ -692,7 +696,7 @@ TEST(CandidatesScreening, PayloadIsRankedFirstAheadOfItsGravityAlone) {
   std::cout << nominal.BriefReport() << "\n";
   ASSERT_TRUE(nominal.IsSolutionUsable());
   ScreeningOptions options;
-  options.candidates.effects = AllEffects();
+  options.candidates.effects = DefaultEffects();
   options.refit_top = 1;
   const Diagnosis d = ScreenAndRefit(problem, splits, nominal, options);
   std::cout << d.FullReport();
@@ -715,5 +719,43 @@ TEST(CandidatesScreening, PayloadIsRankedFirstAheadOfItsGravityAlone) {
   EXPECT_NEAR(r.parameters[2].value, kPayloadInertia, kSizeTolerance * kPayloadInertia);
 }
 
+// Elasticity is structural: no score test, re-fitted with J, K, c and a stiffness grid; on a
+// closed loop a second variant closes the loop on the motor side (q + e). Applied at its nominal
+// values it changes the model (no neutral value) and adds no axis.
+TEST(Candidates, ElasticityIsAStructuralTwoMassVariant) {
+  const std::vector<Candidate> open = Enumerate(CommandSlide(), {"elasticity"});
+  ASSERT_EQ(open.size(), 1u);
+  const Candidate& c = open[0];
+  EXPECT_TRUE(c.structural);
+  EXPECT_TRUE(c.screened.empty());
+  EXPECT_EQ(c.refit, (std::vector<std::string>{"elasticity.J", "elasticity.K", "elasticity.c"}));
+  ASSERT_EQ(c.shape_grids.size(), 1u);
+  EXPECT_EQ(c.shape_grids[0].parameter, "elasticity.K");
+  EXPECT_EQ(c.shape_grids[0].scale, Candidate::ShapeGrid::Scale::kSampleRateSquared);
+  EXPECT_EQ(c.attachment, "force f -> cart");
+  models::Model m = CommandSlide();
+  c.apply(&m);
+  const est::Problem augmented = est::MakeProblem("slide", m);
+  EXPECT_EQ(augmented.built.NumStates(), 4);
+  ASSERT_EQ(FindAxes(augmented).size(), 1u);
+  EXPECT_EQ(FindAxes(augmented)[0].velocity, "cart.qd");
+
+  const std::vector<Candidate> loop = Enumerate(ClosedLoop(), {"elasticity"});
+  ASSERT_EQ(loop.size(), 2u);
+  EXPECT_EQ(loop[1].detail, "two-mass, force and feedback on the motor side");
+  models::Model l = ClosedLoop();
+  loop[1].apply(&l);
+  bool reads_motor_side = false;
+  for (const auto& b : l.Blocks()) {
+    if (b.type.rfind("control.", 0) == 0) {
+      for (const auto& in : b.inputs)
+        reads_motor_side = reads_motor_side || in == loop[1].instance + "_motor_q.out";
+    }
+  }
+  EXPECT_TRUE(reads_motor_side);
+  EXPECT_NO_THROW(l.Build());
+}
+
 }  // namespace
 }  // namespace graybox::diagnosis
+

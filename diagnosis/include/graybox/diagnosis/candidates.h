@@ -19,8 +19,10 @@
 //     of its typical range, v at 0.5 of its typical maximum, inputs 0, the model's parameter
 //     values) must be negative. When it is positive the model's sign convention is the other
 //     one and the candidates write "+F" instead; when it is zero, F does not act on v.
-// When several forces act on one velocity, the one written by an existing friction-family block
-// is taken (else the first in signal order): one axis per velocity state.
+// When several forces act on one velocity (in a coupled multibody every joint torque moves every
+// joint), the one written by a friction-family block that reads v is taken; else one written by
+// any block that reads v; else the one whose probe changes dv/dt the most: one axis per velocity
+// state.
 //
 // A friction-family block is "present on the axis" when one of the blocks producing F
 // (SignalDescription::blocks) is of that type: by Problem::blocks when the problem lists its
@@ -32,13 +34,20 @@
 // there, Model::Augment with a fresh instance name
 // ("<effect>", "<effect>_2", ...; never an existing instance or signal prefix):
 //   coulomb              friction.coulomb       fc free (neutral 0); the smoothing steepness
-//                                               is the block's fixed option (100 s/rad or s/m,
-//                                               kDefaultFrictionSteepness), not a parameter: a
-//                                               free steepness runs to a hard sign in re-fits
+//                                               is the block's fixed option, not a parameter (a
+//                                               free steepness runs to a hard sign in re-fits),
+//                                               chosen by the screening among 5, 30 and 150
+//                                               over the RMS of the axis velocity
+//                                               (Candidate::option_grids; without data the
+//                                               block's default, 100 s/rad or s/m)
 //   asymmetric_friction  friction.offset        f_asym free (neutral 0)
-//   stribeck             friction.stribeck      fc, fs free (neutral 0); vs held at nominal; fv
-//                                               held at 0 when friction.viscous is on the axis
-//                                               (it would repeat that term), else free
+//   stribeck             friction.stribeck      fc, fs free (neutral 0); vs held at nominal
+//                                               for the test, freed to re-fit; fv held at 0
+//                                               when friction.viscous is on the axis (it would
+//                                               repeat that term), else free; fc likewise held
+//                                               at 0 when friction.coulomb is on the axis: the
+//                                               block is then the Stribeck excess
+//                                               fs exp(-(v/vs)^2) sign(v) alone
 //   viscous              friction.viscous       fv free (neutral 0)
 //   power_law_viscous    friction.power_viscous fv free (neutral 0); the exponent k held at its
 //                                               nominal 1 for screening (its direction then
@@ -69,7 +78,14 @@
 // Parameters without a neutral value (shapes: a steepness, a Stribeck velocity, a time constant)
 // cannot be tested at the neutral point: Candidate::screened lists what the score test frees,
 // Candidate::refit what a re-fit frees. Everything in `parameters` outside `refit` stays at the
-// value Augment gave it.
+// value Augment gave it. A block's nominal shape is not this machine's (seed 002's Stribeck
+// velocity is 0.17 rad/s; a drive's may be 0.02 m/s), and where the shape is far off the test
+// looks in the wrong direction and the re-fit cannot recover (at a zero level the shape has no
+// gradient). So shapes that scale with the data get a grid (Candidate::shape_grids) and the
+// screening keeps the value that scores best: the Stribeck velocity vs at 0.03, 0.1, 0.3 and 1
+// times the RMS of the axis velocity; the exponent k of power_law_viscous at 0.3, 0.6 and 2 (at
+// its nominal 1 the direction is viscous friction's); the delay's time constant T at 1, 2.5, 6
+// and 15 sample times.
 //
 // ---- Actuator, position, load and sensor effects (models/sensors.h, friction.h, loads.h) ------
 //   deadzone       actuator.deadzone  b free (neutral 0, the exact pass-through; lower bound 0);
@@ -161,21 +177,35 @@
 //                  start, candidates_test), so its score is near 0 unless such forces or another
 //                  sensor see the shift; the output-only offset is seen against the reference.
 //
-// Default set. An empty CandidateOptions::effects proposes AllEffects(): every effect whose
+// Default set. An empty CandidateOptions::effects proposes DefaultEffects(): every effect but
+// elasticity (a structural re-fit of a stiff two-mass model, minutes per round on 25,000 samples;
+// name it in `effects` when a resonance is suspected), and of those every one whose
 // signals the model has. That is many score tests (on a single axis with two outputs about 20:
 // 4 ripple candidates per axis, 2 to 4 sensor candidates per channel), which costs time and raises
 // the chance that some candidate looks significant by accident; the diagnosis (diagnose.h)
 // therefore accepts an effect only when its re-fit also lowers the validation error by a margin.
 // Name a subset in `effects` to screen fewer.
 //
-// Not yet proposed here: elasticity (rigid -> two-mass). A rigid axis has no neutral elastic form
-// the score test could start from: the rigid limit is an infinite stiffness, and a compliance
-// c = 1/Ke at 0 is a singular perturbation (the joint torque becomes an algebraic variable), which
-// the ODE models cannot hold; it needs a structural re-fit without a score test. Structural
-// choices are the variants above (sensor with or without feedback, payload direction, presliding
-// Dahl or LuGre, ripple period); friction on the motor or the load side of a drive.two_mass is
-// the friction family on each of its two axes (qd_m and qd_l are separate axes, each with its own
-// candidates, the attachment naming the side).
+//   elasticity     mechanics.elastic_coupling  (models/loads.h) structural: the rigid body
+//                  becomes a two-mass axis, a motor-side inertia J and a spring-damper K, c
+//                  between the net force F and the body, Model::InsertForReaders on F for the
+//                  body only (every force in F then acts on the motor side; friction blocks keep
+//                  reading the body's velocity). On the same bodies as rotor_inertia, free inertia
+//                  or not. No parameter has a neutral value (the rigid limit is K -> infinity), so
+//                  there is no score test: Candidate::structural, re-fitted in every round with
+//                  J, K, c held first while K is profiled over modes at 1, 2, 4 and 8 % of the
+//                  sample rate (ShapeGrid kSampleRateSquared), then freed (screening.h). The
+//                  block's body inertia option M is the body's value when applied; a re-fit that
+//                  moves a free M leaves the option at the start value (the two-mass dynamics
+//                  stay consistent, the split of the total differs slightly). Detail "two-mass,
+//                  force on the motor side", attachment "force F -> <body>". Not proposed: an
+//                  elastic transmission where the controller reads the motor side while the data
+//                  log the load side (the motor position q + e is not an output of the block).
+//
+// Structural choices are the variants above (sensor with or without feedback, payload direction,
+// presliding Dahl or LuGre, ripple period, the Coulomb smoothing); friction on the motor or the
+// load side of a drive.two_mass is the friction family on each of its two axes (qd_m and qd_l are
+// separate axes, each with its own candidates, the attachment naming the side).
 //
 // Failure behaviour. An unknown name in CandidateOptions::effects throws std::invalid_argument
 // with a did-you-mean; so does a ripple period that is not finite and > 0. A model without an
@@ -195,7 +225,8 @@ namespace graybox::diagnosis {
 struct Candidate {
   /// The effect's name from issue 10's list: "coulomb", "asymmetric_friction", "stribeck",
   /// "viscous", "power_law_viscous", "presliding", "input_delay", "deadzone", "ripple",
-  /// "rotor_inertia", "payload", "leakage", "polytropic_index", "sensor_offset", "sensor_scale".
+  /// "rotor_inertia", "payload", "elasticity", "backlash", "leakage", "polytropic_index",
+  /// "sensor_offset", "sensor_scale".
   std::string effect;
   /// The variant or block: "dahl" or "lugre" for presliding, "period 0.0625 m" for ripple,
   /// "sensor.offset, output" (or ", output and feedback") for the sensors, else the block type
@@ -215,12 +246,52 @@ struct Candidate {
   std::vector<std::string> screened;
   /// Free in a re-fit: `screened` plus the shape parameters held for the test.
   std::vector<std::string> refit;
+  /// A shape parameter (one of `refit` not in `screened`) whose starting value the screening
+  /// chooses from the data: the score test runs once per value, factor * scale, and keeps the
+  /// value with the largest score (the re-fit starts there).
+  struct ShapeGrid {
+    enum class Scale {
+      kAbsolute,    // scale 1: the factors are the values
+      kStateRms,    // the root mean square of `state` over the nominal model's simulation of the
+                    // estimation splits
+      kSampleTime,  // the sample time of the first estimation split
+      kSampleRateSquared,  // 1 / (sample time)^2: a stiffness K = (2 pi f)^2 J_eff of a mode at
+                           // f = f_rel / dt has factor (2 pi f_rel)^2 J_eff
+    };
+    std::string parameter;
+    Scale scale = Scale::kAbsolute;
+    std::string state;
+    std::vector<double> factors;
+  };
+  std::vector<ShapeGrid> shape_grids;
+  /// Simpler effects this one contains at some parameter values (a Stribeck curve with its own
+  /// Coulomb level at fs = fc is Coulomb friction; a power law at k = 1 is viscous friction; a
+  /// rotational payload without gravity is a rotor inertia): the ranking prefers them when they
+  /// fit about as well (screening.h).
+  std::vector<std::string> reduces_to;
+  /// A block option chosen from the data like a shape grid: the score test runs with the
+  /// candidate applied by apply_with_option(model, value) for each value = factor / scale
+  /// (`inverse`) or factor * scale (ShapeGrid::Scale) and keeps the best; the re-fit keeps it.
+  /// The Coulomb block's smoothing steepness is one (an option, not a parameter: freed, it runs
+  /// to a hard sign): 5, 30 and 150 over the RMS of the axis velocity.
+  struct OptionGrid {
+    std::string option;
+    ShapeGrid::Scale scale = ShapeGrid::Scale::kAbsolute;
+    std::string state;
+    std::vector<double> factors;
+    bool inverse = false;
+  };
+  std::vector<OptionGrid> option_grids;
+  std::function<void(models::Model*, double)> apply_with_option;
+  /// A structural candidate (elasticity): no parameter has a neutral value, so there is no score
+  /// test (`screened` is empty); it is re-fitted in every round instead (screening.h).
+  bool structural = false;
   /// "<effect> (<detail>) on <attachment>".
   std::string Name() const;
 };
 
 struct CandidateOptions {
-  /// Effects to propose (names as in Candidate::effect); empty: AllEffects().
+  /// Effects to propose (names as in Candidate::effect); empty: DefaultEffects().
   std::vector<std::string> effects;
   /// Periods [m or rad] of the ripple candidates, one candidate each on every axis with a
   /// position (the pole or slot pitch, a screw lead, a gear-tooth pitch, or the peaks of the
@@ -234,9 +305,13 @@ struct CandidateOptions {
 };
 
 /// Every effect this layer can propose, in enumeration order: per axis the friction family,
-/// input_delay, deadzone, ripple, rotor_inertia, payload; per chamber leakage, polytropic_index;
-/// then per output channel sensor_offset, sensor_scale.
+/// input_delay, deadzone, ripple, rotor_inertia, payload, elasticity; per chamber leakage,
+/// polytropic_index; then per output channel sensor_offset, sensor_scale.
 const std::vector<std::string>& AllEffects();
+
+/// The effects proposed when CandidateOptions::effects is empty: AllEffects() without
+/// "elasticity" (see the file comment).
+const std::vector<std::string>& DefaultEffects();
 
 /// A mechanical axis found from metadata (see the file comment).
 struct MechanicalAxis {

@@ -758,4 +758,3 @@ TEST(Candidates, ElasticityIsAStructuralTwoMassVariant) {
 
 }  // namespace
 }  // namespace graybox::diagnosis
-

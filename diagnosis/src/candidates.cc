@@ -224,6 +224,15 @@ void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis
     const std::string instance = c.instance;
     const std::string sig = signal;
     const std::vector<std::string> rd = readers;
+    c.augmentation = {models::Augmentation::Kind::kForReaders,
+                      c.instance,
+                      models::kActuatorDeadzone,
+                      QuantityOptions(info),
+                      {},
+                      {},
+                      signal,
+                      readers,
+                      {}};
     c.apply = [block, instance, sig, rd, held](models::Model* m) {
       m->InsertForReaders(sig, instance, block, rd);
       for (const auto& q : held) m->Fix(q);
@@ -267,6 +276,15 @@ void AddRipples(const estimators::Problem& problem, const MechanicalAxis& axis,
         models::BlockRegistry::Global().Create(models::kRippleFriction, o));
     const std::vector<std::string> held = SplitParameters(*block, &c);
     const std::string instance = c.instance, position = axis.position, connection = axis.connection;
+    c.augmentation = {models::Augmentation::Kind::kAdd,
+                      c.instance,
+                      models::kRippleFriction,
+                      o,
+                      {axis.position},
+                      {axis.connection},
+                      "",
+                      {},
+                      {}};
     c.apply = [block, instance, position, connection, held](models::Model* m) {
       m->Augment(instance, block, {position}, {connection});
       for (const auto& q : held) m->Fix(q);
@@ -303,6 +321,15 @@ void AddSensors(const estimators::Problem& problem, const std::string& effect,
       const std::vector<std::string> held = SplitParameters(*block, &c);
       const std::string instance = c.instance, ch = channel;
       const std::vector<std::string> readers = feedback ? controllers : std::vector<std::string>{};
+      c.augmentation = {models::Augmentation::Kind::kOnOutput,
+                        c.instance,
+                        type,
+                        QuantityOptions(info),
+                        {},
+                        {},
+                        channel,
+                        readers,
+                        {}};
       c.apply = [block, instance, ch, readers, held](models::Model* m) {
         m->InsertOnOutput(ch, instance, block, readers);
         for (const auto& q : held) m->Fix(q);
@@ -763,6 +790,15 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
               {velocity}, {connection});
         };
       }
+      c.augmentation = {models::Augmentation::Kind::kAdd,
+                        c.instance,
+                        kind.type,
+                        CandidateOptionsFor(kind.type, axis.prismatic),
+                        {axis.velocity},
+                        {axis.connection},
+                        "",
+                        {},
+                        {}};
       c.apply = [block, instance, velocity, connection, held](models::Model* m) {
         m->Augment(instance, block, {velocity}, {connection});
         for (const auto& q : held) m->Fix(q);
@@ -798,6 +834,15 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       c.shape_grids.push_back(
           {c.instance + ".T", Candidate::ShapeGrid::Scale::kSampleTime, "", {1.0, 2.5, 6.0, 15.0}});
       const std::string instance = c.instance;
+      c.augmentation = {models::Augmentation::Kind::kOnSignal,
+                        c.instance,
+                        "delay.first_order",
+                        o,
+                        {},
+                        {},
+                        input,
+                        {},
+                        {}};
       c.apply = [block, instance, input, held](models::Model* m) {
         m->InsertOnSignal(input, instance, block);
         for (const auto& q : held) m->Fix(q);

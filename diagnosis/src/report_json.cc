@@ -3,6 +3,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
+
+#include "graybox/estimators/problem/augmentation_toml.h"
+
 namespace graybox::diagnosis {
 namespace {
 
@@ -24,6 +28,36 @@ Json ParameterJson(const est::FitParameter& p) {
   j["free"] = p.free;
   j["at_bound"] = p.at_bound;
   return j;
+}
+
+// The re-fitted candidate as problem-file text: its [[model.augment]] table (with an option the
+// screening chose; empty for candidates without a declarative form, Candidate::augmentation) and
+// the lines of [model.parameters] with the re-fitted values, free as in the re-fit.
+std::string AugmentText(const RefitResult& f, const CandidateScore* screened) {
+  models::Augmentation a = f.candidate.augmentation;
+  if (a.type.empty()) return "";
+  if (screened != nullptr) {
+    const std::string prefix = f.candidate.instance + " option ";
+    for (const auto& [key, value] : screened->shape_start) {
+      if (key.rfind(prefix, 0) == 0) a.options.numbers[key.substr(prefix.size())] = {value};
+    }
+  }
+  try {
+    return est::AugmentationToml(a);
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
+std::string ParameterLines(const RefitResult& f) {
+  std::string text;
+  for (const est::FitParameter& p : f.parameters) {
+    char line[256];
+    std::snprintf(line, sizeof(line), "\"%s\" = { value = %.10g, free = %s }\n", p.name.c_str(),
+                  p.value, p.free ? "true" : "false");
+    text += line;
+  }
+  return text;
 }
 
 Json ParametersJson(const std::vector<est::FitParameter>& parameters) {
@@ -173,6 +207,12 @@ Json RoundJson(const SelectionRound& r) {
     fj["score"] = f.score;
     fj["solver_status"] = f.fit.solver_result.status;
     fj["stages"] = f.stages;
+    const CandidateScore* screened = nullptr;
+    for (const CandidateScore& sc : r.screening.screened) {
+      if (sc.candidate.instance == f.candidate.instance) screened = &sc;
+    }
+    fj["augment_toml"] = AugmentText(f, screened);
+    fj["parameters_toml"] = ParameterLines(f);
     fj["parameters"] = ParametersJson(f.parameters);
     refits.push_back(fj);
   }

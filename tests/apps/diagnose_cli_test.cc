@@ -47,6 +47,40 @@ TEST(DiagnoseCli, EmpsWithoutCoulombNamesCoulombInDiagnosisJson) {
   EXPECT_FALSE(d["run"]["revision"].get<std::string>().empty());
   EXPECT_TRUE(fs::exists(dir / "out/report.html"));
   EXPECT_TRUE(d["reference"]["ok"].get<bool>()) << d["reference"]["failure"];
+
+  // The accepted candidate as problem-file text: appended to the problem file (its
+  // [[model.augment]] table at the end, its parameter lines in [model.parameters]) and fitted from
+  // the diagnosis' start, it gives the re-fit's Coulomb level again.
+  const Json& refit = d["rounds"][0]["refits"][0];
+  ASSERT_EQ(refit["effect"], "coulomb");
+  const std::string augment = refit["augment_toml"];
+  const std::string parameters = refit["parameters_toml"];
+  EXPECT_NE(augment.find("type = \"friction.coulomb\""), std::string::npos) << augment;
+  EXPECT_NE(augment.find("steepness"), std::string::npos) << augment;
+  std::string text = ReadText(kProblem);
+  const std::string data_prefix = "\"../../../shared/data/";
+  for (std::size_t p = text.find(data_prefix); p != std::string::npos;
+       p = text.find(data_prefix, p)) {
+    text.replace(p, data_prefix.size(), "\"" + std::string(GRAYBOX_SHARED_DATA_DIR) + "/");
+  }
+  const std::string table = "[model.parameters]\n";
+  ASSERT_NE(text.find(table), std::string::npos);
+  text.insert(text.find(table) + table.size(), parameters);
+  WriteText(dir / "with_coulomb.toml", text + "\n" + augment);
+  const RunResult fit =
+      RunGraybox("fit '" + (dir / "with_coulomb.toml") + "' --out '" + (dir / "fit") + "'",
+                 dir / "fit_log.txt");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const Json result = Json::parse(ReadText(dir / "fit/result.json"));
+  double refit_fc = 0.0;
+  for (const Json& p : refit["parameters"]) {
+    if (p["name"] == "coulomb.fc") refit_fc = p["value"];
+  }
+  ASSERT_GT(refit_fc, 0.0);
+  // The same problem and start: the same optimum, to the solvers' tolerance.
+  constexpr double kRelativeTolerance = 1e-3;
+  EXPECT_NEAR(result["parameters"]["coulomb.fc"]["value"].get<double>(), refit_fc,
+              kRelativeTolerance * refit_fc);
 }
 
 TEST(DiagnoseCli, UnknownEffectIsBadInputAndWritesNothing) {

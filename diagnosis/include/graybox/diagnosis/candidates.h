@@ -217,6 +217,7 @@
 #include <vector>
 
 #include "graybox/estimators/fit/fit.h"
+#include "graybox/models/augmentation.h"
 #include "graybox/models/model.h"
 
 namespace graybox::diagnosis {
@@ -286,6 +287,11 @@ struct Candidate {
   /// A structural candidate (elasticity): no parameter has a neutral value, so there is no score
   /// test (`screened` is empty); it is re-fitted in every round instead (screening.h).
   bool structural = false;
+  /// The candidate as a problem file states it (a [[model.augment]] table; the parameters outside
+  /// `refit` are fixed): friction, ripple, input_delay, deadzone and sensor candidates; an empty
+  /// type for the others (loads, backlash, chamber effects, elasticity), whose options are read
+  /// from the model when applied. A chosen option (CandidateScore::shape_start) is not in it.
+  models::Augmentation augmentation;
   /// "<effect> (<detail>) on <attachment>".
   std::string Name() const;
 };

@@ -31,8 +31,17 @@ void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
                   "threads for screening and re-fits (default 0: one per hardware thread)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--effects", o->effects,
-                  "candidate effects to propose, comma-separated (default: every effect)")
+                  "candidate effects to propose, comma-separated (default: every effect but "
+                  "elasticity)")
       ->delimiter(',');
+  cmd->add_option("--refit-seconds", o->refit_seconds,
+                  "budget of each re-fit solve in seconds (default 0: 20 x the nominal solve, at "
+                  "least 10 s); a re-fit "
+                  "stopped by it is reported as not converged")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--no-reference", o->no_reference,
+                "skip the flexible reference (no gap, no 'gap closed'; saves its fit, which "
+                "dominates on long multi-axis records)");
 }
 
 }  // namespace

@@ -38,7 +38,9 @@ struct CommandOptions {
   int max_effects = 3;
   int refit_top = 5;
   int threads = 0;
-  std::vector<std::string> effects;  // candidate effects to propose; empty: all
+  std::vector<std::string> effects;  // candidate effects to propose; empty: the default set
+  bool no_reference = false;         // skip the flexible reference
+  double refit_seconds = 0.0;        // budget of each re-fit solve
   // bench withheld only.
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters

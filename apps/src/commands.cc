@@ -97,6 +97,8 @@ diagnosis::DiagnoseOptions DiagnoseOptionsFrom(const CommandOptions& o) {
   options.screening.refit_top = o.refit_top;
   options.screening.num_threads = o.threads;
   options.screening.candidates.effects = o.effects;
+  options.fit_reference = !o.no_reference;
+  options.screening.refit_max_seconds = o.refit_seconds;
   return options;
 }
 

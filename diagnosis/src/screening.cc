@@ -46,6 +46,10 @@ std::string Format(const char* fmt, double v) {
   return buf;
 }
 
+// The automatic re-fit budget (ScreeningOptions::refit_max_seconds = 0).
+constexpr double kAutoBudgetFactor = 20.0;
+constexpr double kAutoBudgetFloor = 10.0;
+
 int NumFree(const std::vector<models::ModelParameter>& parameters) {
   int n = 0;
   for (const auto& p : parameters) n += p.free ? 1 : 0;
@@ -512,7 +516,7 @@ std::string IntegrationCheck(const est::Problem& aug, const std::vector<est::Spl
 // it is usable, no freed shape parameter ends at a bound and its cost is not above A's.
 RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
                   const est::FitResult& nominal, const CandidateScore& screened,
-                  const std::string& role, double before) {
+                  const std::string& role, double before, double max_solve_seconds) {
   const Candidate& c = screened.candidate;
   RefitResult out;
   out.candidate = c;
@@ -526,7 +530,9 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
   out.aic = out.bic = kNaN;
   try {
     const est::Problem aug = AugmentedProblem(problem, nominal, c, false);
-    est::FitSession session(aug, AugmentedSplits(splits, aug.built.NumStates()));
+    est::FitOptions fo;
+    fo.max_solve_seconds = max_solve_seconds;
+    est::FitSession session(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
     std::vector<double> neutral;
     neutral.assign(c.screened.size(), 0.0);
     for (std::size_t i = 0; i < c.screened.size(); ++i) {
@@ -784,6 +790,10 @@ double ChiSquareSurvival(double x, int dof) {
 }
 
 void ScreeningOptions::Validate() const {
+  if (!(refit_max_seconds >= 0.0)) {
+    throw std::invalid_argument("ScreeningOptions.refit_max_seconds: expected >= 0, got " +
+                                std::to_string(refit_max_seconds));
+  }
   if (!(nested_margin >= 0.0)) {
     throw std::invalid_argument("ScreeningOptions.nested_margin: expected >= 0, got " +
                                 std::to_string(nested_margin));
@@ -844,12 +854,21 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   for (const CandidateScore& s : d.screened) {
     if (s.candidate.structural && s.failure.empty()) to_refit.push_back(&s);
   }
+  // The budget of each re-fit solve: as given, else 20 times the nominal solve, at least 10 s.
+  double budget = options.refit_max_seconds;
+  if (budget == 0.0) {
+    double nominal_solve = 0.0;
+    for (const auto& [what, seconds] : nominal.seconds) {
+      if (what == "solve") nominal_solve = seconds;
+    }
+    budget = std::max(kAutoBudgetFactor * nominal_solve, kAutoBudgetFloor);
+  }
   d.refits.resize(to_refit.size());
   ParallelFor(static_cast<int>(to_refit.size()), options.num_threads, [&](int i) {
     report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +
            std::to_string(to_refit.size()) + ")");
     d.refits[i] = Refit(problem, splits, nominal, *to_refit[i], d.validation_role,
-                        d.nominal_validation_nrmse);
+                        d.nominal_validation_nrmse, budget);
   });
   auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
   const double tie = options.tie_tolerance;

@@ -49,11 +49,15 @@ class Heartbeat {
     cv_.notify_all();
     if (thread_.joinable()) thread_.join();
   }
-  bool Record(const IterationSummary& s) {
+  // Keeps the latest iteration for the progress line; false (stop) once the solve has iterated
+  // for more than `max_seconds` (> 0) since its first iteration (time waiting for the Ipopt lock
+  // does not count).
+  bool Record(const IterationSummary& s, double max_seconds) {
     std::lock_guard<std::mutex> lock(mutex_);
     latest_ = s;
+    if (!has_latest_) first_iteration_ = Timer();
     has_latest_ = true;
-    return true;
+    return !(max_seconds > 0.0 && first_iteration_.Seconds() > max_seconds);
   }
 
  private:
@@ -78,6 +82,7 @@ class Heartbeat {
   double interval_;
   std::string solver_;
   Timer timer_;
+  Timer first_iteration_;
   std::mutex mutex_;
   std::condition_variable cv_;
   bool done_ = false;
@@ -99,6 +104,10 @@ int FindParameter(const models::StateSpaceModel& m, const std::string& name) {
 }  // namespace
 
 void FitOptions::Validate() const {
+  if (!(max_solve_seconds >= 0.0)) {
+    throw std::invalid_argument("FitOptions.max_solve_seconds: expected >= 0, got " +
+                                std::to_string(max_solve_seconds));
+  }
   if (!(progress_interval_seconds > 0.0)) {
     throw std::invalid_argument("FitOptions.progress_interval_seconds: expected > 0, got " +
                                 std::to_string(progress_interval_seconds));
@@ -321,7 +330,10 @@ FitResult FitSession::Solve(const FitResult* start) {
   t = Timer();
   {
     Heartbeat heartbeat(s.options.progress, s.options.progress_interval_seconds, spec.solver);
-    auto record = [&heartbeat](const IterationSummary& it) { return heartbeat.Record(it); };
+    const double max_seconds = s.options.max_solve_seconds;
+    auto record = [&heartbeat, max_seconds](const IterationSummary& it) {
+      return heartbeat.Record(it, max_seconds);
+    };
     ipopt.callback = record;
     ceres.callback = record;
     result.solver_result = spec.solver == "ceres"

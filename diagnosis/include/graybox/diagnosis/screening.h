@@ -161,6 +161,13 @@ struct ScreeningOptions {
   /// first only when its validation NRMSE is lower than the simpler one's by more than
   /// nested_margin x the nominal validation NRMSE (>= 0).
   double nested_margin = 0.02;
+  /// Budget of each solve of a re-fit [s] from its first iteration (FitOptions::
+  /// max_solve_seconds); 0: automatic, 20 times the nominal fit's solve time and at least 10 s
+  /// (a re-fit is a warm-started fit of a model one block larger). A re-fit stopped by it is
+  /// reported as not converged, never ranked: an unattended diagnosis must not hang on one
+  /// candidate (a ripple re-fit on EMPS took 150 s where the nominal fit takes 0.8 s; a
+  /// payload's unmeasured angle made MUMPS reallocate for minutes).
+  double refit_max_seconds = 0.0;
   /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
   /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt solves are
   /// serialised by the estimators' process-wide lock, everything else (formulation, derivatives,

@@ -104,6 +104,10 @@ struct FitOptions {
   std::function<void(const std::string&)> progress;
   /// Seconds between two solver progress lines.
   double progress_interval_seconds = 15.0;
+  /// Stop a solve that has iterated longer than this [s] since its first iteration (0: no
+  /// limit); the result then has status kUserInterrupt (usable, not converged). A budget for
+  /// unattended fits such as the diagnosis' re-fits.
+  double max_solve_seconds = 0.0;
   /// Compute the covariance after solving.
   bool compute_covariance = true;
   /// Evaluate every split after solving (simulation, equation error, N-step NRMS).

@@ -324,6 +324,27 @@ double ShapeScale(const est::Problem& problem, const std::vector<est::SplitData>
   return count > 0 ? std::sqrt(sum / count) : kNaN;
 }
 
+// Scores each of `variants` (the simulation score) and keeps the best in *out (candidate, score,
+// one-step estimate); returns its index, or -1 when none could be scored (*out unchanged).
+int BestScoring(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                const est::FitResult& nominal, const std::vector<Candidate>& variants,
+                CandidateScore* out) {
+  int best = -1;
+  CandidateScore best_score;
+  for (std::size_t i = 0; i < variants.size(); ++i) {
+    CandidateScore trial = *out;
+    trial.candidate = variants[i];
+    const est::Problem aug = AugmentedProblem(problem, nominal, variants[i], false);
+    if (ScoreBySimulation(aug, splits, nominal, variants[i], &trial) &&
+        (best < 0 || trial.score > best_score.score)) {
+      best = static_cast<int>(i);
+      best_score = std::move(trial);
+    }
+  }
+  if (best >= 0) out->candidate = best_score.candidate;
+  return best;
+}
+
 // `candidate` with a shape parameter set to `value` after it is applied.
 Candidate WithShape(const Candidate& candidate, const std::string& parameter, double value) {
   Candidate c = candidate;
@@ -361,7 +382,8 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
       return out;
     }
     if (out.dof == 0) throw std::runtime_error("no parameter with a neutral value to test");
-    // Option grids: the score at each value, the best kept.
+    // Option grids, then shape grids: the score at each value, the best kept (its candidate
+    // re-fitted from there).
     for (const Candidate::OptionGrid& grid : candidate.option_grids) {
       if (!candidate.apply_with_option) break;
       Candidate::ShapeGrid g;
@@ -369,52 +391,39 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
       g.state = grid.state;
       const double scale = ShapeScale(problem, splits, nominal, g);
       if (!(std::isfinite(scale) && scale > 0.0)) continue;
-      CandidateScore best;
-      best.score = -1.0;
-      double best_value = kNaN;
+      std::vector<double> values;
+      std::vector<Candidate> variants;
       for (const double factor : grid.factors) {
         const double v = grid.inverse ? factor / scale : factor * scale;
         Candidate c = out.candidate;
         const auto apply = candidate.apply_with_option;
         c.apply = [apply, v](models::Model* m) { apply(m, v); };
-        const est::Problem aug = AugmentedProblem(problem, nominal, c, false);
-        CandidateScore trial = out;
-        trial.candidate = c;
-        if (ScoreBySimulation(aug, splits, nominal, c, &trial) && trial.score > best.score) {
-          best = trial;
-          best_value = v;
-        }
+        values.push_back(v);
+        variants.push_back(std::move(c));
       }
-      if (std::isfinite(best_value)) {
-        out.candidate = best.candidate;
-        out.shape_start.emplace_back(candidate.instance + " option " + grid.option, best_value);
+      const int best = BestScoring(problem, splits, nominal, variants, &out);
+      if (best >= 0) {
+        out.shape_start.emplace_back(candidate.instance + " option " + grid.option, values[best]);
       }
     }
-    // Shape grids: the score at each value, the best kept (its candidate re-fitted from there).
     for (const Candidate::ShapeGrid& grid : candidate.shape_grids) {
       const double scale = ShapeScale(problem, splits, nominal, grid);
       if (!(std::isfinite(scale) && scale > 0.0)) continue;
-      CandidateScore best;
-      best.score = -1.0;
-      double best_value = kNaN;
-      std::vector<double> tried;
+      const est::Problem augmented = AugmentedProblem(problem, nominal, out.candidate, false);
+      const models::ModelParameter& p =
+          augmented.built.parameters[augmented.built.ParameterIndex(grid.parameter)];
+      std::vector<double> values;
+      std::vector<Candidate> variants;
       for (const double factor : grid.factors) {
-        const Candidate c = WithShape(out.candidate, grid.parameter, factor * scale);
-        est::Problem aug = AugmentedProblem(problem, nominal, c, false);
-        const models::ModelParameter& p = aug.model.Parameter(grid.parameter);
-        if (!(factor * scale >= p.lower && factor * scale <= p.upper)) continue;
-        tried.push_back(factor * scale);
-        CandidateScore trial = out;
-        trial.candidate = c;
-        if (ScoreBySimulation(aug, splits, nominal, c, &trial) && trial.score > best.score) {
-          best = trial;
-          best_value = factor * scale;
-        }
+        const double v = factor * scale;
+        if (!(v >= p.lower && v <= p.upper)) continue;
+        values.push_back(v);
+        variants.push_back(WithShape(out.candidate, grid.parameter, v));
       }
-      if (std::isfinite(best_value)) {
-        out.candidate = best.candidate;
-        out.shape_start.emplace_back(grid.parameter, best_value);
-        out.shape_grid_values.emplace_back(grid.parameter, tried);
+      const int best = BestScoring(problem, splits, nominal, variants, &out);
+      if (best >= 0) {
+        out.shape_start.emplace_back(grid.parameter, values[best]);
+        out.shape_grid_values.emplace_back(grid.parameter, values);
       }
     }
     const est::Problem aug = AugmentedProblem(problem, nominal, out.candidate, false);

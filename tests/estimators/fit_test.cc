@@ -21,8 +21,9 @@ const std::string kProblems = std::string(GRAYBOX_SOURCE_DIR) + "/problems/emps/
 // The published IDIM-LS estimates agree with ours to the digits printed in the EMPS benchmark
 // description (M 95.1089, Fv 203.5034, Fc 20.3935, offset -3.1648): five significant digits.
 constexpr double kPublishedRelTol = 2e-5;
-// Fits on the same data in threads and in sequence run the same arithmetic (Ipopt under its
-// lock, Ceres on one thread each): the results agree to rounding.
+// Fits on the same data in threads and in sequence run the same arithmetic (Ipopt's own code under
+// its lock with the evaluations of the other threads overlapping, Ceres on one thread each): the
+// results agree to rounding.
 constexpr double kSameArithmeticRelTol = 1e-12;
 // A warm re-fit and a cold fit converge to the same optimum within the solver tolerance (Ipopt
 // tol 1e-8 on the scaled problem): they differ by far less than a thousandth of a standard error

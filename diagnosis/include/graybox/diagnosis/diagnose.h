@@ -64,7 +64,7 @@
 // DiagnosisReport::explained is true when at least one effect was accepted.
 //
 // Threads. Screening and re-fits run on options.screening.num_threads threads (screening.h);
-// Ipopt solves are serialised by the estimators' process-wide lock.
+// Ipopt's own code runs under the estimators' process-wide lock, the evaluations overlap.
 //
 // Failure behaviour. Invalid options throw std::invalid_argument naming the field
 // (DiagnoseOptions::Validate); a problem or data defect throws from estimators::Fit as a fit does;

@@ -169,9 +169,10 @@ struct ScreeningOptions {
   /// payload's unmeasured angle made MUMPS reallocate for minutes).
   double refit_max_seconds = 0.0;
   /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
-  /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt solves are
-  /// serialised by the estimators' process-wide lock, everything else (formulation, derivatives,
-  /// covariance, simulation of the splits) overlaps. The results do not depend on it.
+  /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt's own code
+  /// runs under the estimators' process-wide lock, everything else (the NLP's evaluations,
+  /// formulation, derivatives, covariance, simulation of the splits) overlaps. The results do not
+  /// depend on it.
   int num_threads = 0;
   /// Progress lines ("screening coulomb (1/7)"); none when empty. Called from the worker
   /// threads, one call at a time.

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include "graybox/estimators/solvers/solvers.h"
 #include "graybox/util/did_you_mean.h"
@@ -89,7 +90,8 @@ SolverStatus StatusCode(Ipopt::SolverReturn status) {
   }
 }
 
-// Ipopt 3.11.9 with the sequential MUMPS is not known to be thread-safe: one solve at a time.
+// Ipopt 3.11.9 with the sequential MUMPS is not known to be thread-safe: Ipopt's own code runs
+// under this lock, one thread at a time; the adapter releases it while the model evaluates.
 std::mutex& IpoptLock() {
   static std::mutex lock;
   return lock;
@@ -97,9 +99,12 @@ std::mutex& IpoptLock() {
 
 class NlpAdapter : public Ipopt::TNLP {
  public:
+  // `serial` holds IpoptLock() whenever Ipopt's code runs; the evaluation callbacks and the
+  // iteration callback release it while they run (graybox code only) and take it back before
+  // returning to Ipopt.
   NlpAdapter(const Nlp& nlp, SolverResult* result, const IpoptOptions& options,
-             const WarmStart* start)
-      : nlp_(nlp), result_(result), options_(options), start_(start) {}
+             const WarmStart* start, std::unique_lock<std::mutex>* serial)
+      : nlp_(nlp), result_(result), options_(options), start_(start), serial_(serial) {}
 
   bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g,
                     Ipopt::Index& nnz_h_lag, IndexStyleEnum& index_style) override {
@@ -149,13 +154,13 @@ class NlpAdapter : public Ipopt::TNLP {
   }
 
   bool eval_f(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number& f) override {
-    return Record(nlp_.Objective(x, &f));
+    return Record(Unlocked([&] { return nlp_.Objective(x, &f); }));
   }
   bool eval_grad_f(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number* g) override {
-    return Record(nlp_.Gradient(x, g));
+    return Record(Unlocked([&] { return nlp_.Gradient(x, g); }));
   }
   bool eval_g(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Index, Ipopt::Number* g) override {
-    return Record(nlp_.Constraints(x, g));
+    return Record(Unlocked([&] { return nlp_.Constraints(x, g); }));
   }
   bool eval_jac_g(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Index, Ipopt::Index nele,
                   Ipopt::Index* rows, Ipopt::Index* cols, Ipopt::Number* values) override {
@@ -166,7 +171,7 @@ class NlpAdapter : public Ipopt::TNLP {
       }
       return true;
     }
-    return Record(nlp_.JacobianValues(x, values));
+    return Record(Unlocked([&] { return nlp_.JacobianValues(x, values); }));
   }
   bool eval_h(Ipopt::Index, const Ipopt::Number* x, bool, Ipopt::Number sigma, Ipopt::Index,
               const Ipopt::Number* lambda, bool, Ipopt::Index nele, Ipopt::Index* rows,
@@ -178,7 +183,7 @@ class NlpAdapter : public Ipopt::TNLP {
       }
       return true;
     }
-    return Record(nlp_.HessianValues(x, sigma, lambda, values));
+    return Record(Unlocked([&] { return nlp_.HessianValues(x, sigma, lambda, values); }));
   }
 
   bool intermediate_callback(Ipopt::AlgorithmMode, Ipopt::Index iter, Ipopt::Number obj,
@@ -195,7 +200,7 @@ class NlpAdapter : public Ipopt::TNLP {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time_).count();
     result_->history.push_back(s);
     result_->iterations = static_cast<int>(iter);
-    return !options_.callback || options_.callback(s);
+    return !options_.callback || Unlocked([&] { return options_.callback(s); });
   }
 
   void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x,
@@ -224,6 +229,17 @@ class NlpAdapter : public Ipopt::TNLP {
   }
 
  private:
+  // Runs fn() with the Ipopt lock released and takes it back (also when fn throws).
+  template <typename Fn>
+  std::invoke_result_t<Fn&> Unlocked(Fn&& fn) {
+    struct Relock {
+      std::unique_lock<std::mutex>* lock;
+      ~Relock() { lock->lock(); }
+    };
+    serial_->unlock();
+    const Relock relock{serial_};
+    return fn();
+  }
   bool Record(const NlpEvalStatus& s) {
     if (!s.ok) last_failure_ = s.message;
     return s.ok;
@@ -232,6 +248,7 @@ class NlpAdapter : public Ipopt::TNLP {
   SolverResult* result_;
   const IpoptOptions& options_;
   const WarmStart* start_;
+  std::unique_lock<std::mutex>* serial_;
   std::chrono::steady_clock::time_point start_time_ = std::chrono::steady_clock::now();
   std::string last_failure_;
 };
@@ -261,7 +278,7 @@ SolverResult SolveWithIpopt(const Nlp& nlp, const IpoptOptions& options, const W
                                 std::to_string(start->w.size()) + " variables, expected " +
                                 std::to_string(nlp.NumVariables()));
   }
-  const std::lock_guard<std::mutex> serial(IpoptLock());
+  std::unique_lock<std::mutex> serial(IpoptLock());
   SolverResult result;
   result.solver = "ipopt";
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
@@ -323,7 +340,7 @@ SolverResult SolveWithIpopt(const Nlp& nlp, const IpoptOptions& options, const W
   if (app->Initialize() != Ipopt::Solve_Succeeded) {
     throw std::runtime_error("Ipopt failed to initialise");
   }
-  Ipopt::SmartPtr<Ipopt::TNLP> adapter = new NlpAdapter(nlp, &result, options, start);
+  Ipopt::SmartPtr<Ipopt::TNLP> adapter = new NlpAdapter(nlp, &result, options, start, &serial);
   app->OptimizeTNLP(adapter);
   result.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();

@@ -32,9 +32,9 @@
 // formulates again before the next solve (counted in num_formulations()).
 //
 // Threads. A FitSession is used by one thread at a time. Several sessions may solve at once:
-// Ceres solves run in parallel, Ipopt solves are serialised by a process-wide lock (Ipopt 3.11.9
-// with the sequential MUMPS is not known to be thread-safe; solvers.h); the results are the same
-// as in sequence.
+// Ceres solves run in parallel; Ipopt's own code runs under a process-wide lock while the
+// evaluations overlap (Ipopt 3.11.9 with the sequential MUMPS is not known to be thread-safe;
+// solvers.h); the results are the same as in sequence.
 #pragma once
 
 #include <functional>

@@ -11,11 +11,13 @@
 // trial point is returned to the solver as a failed evaluation (it backs off), never a crash.
 //
 // Concurrency. Ipopt 3.11.9 with the sequential MUMPS is not known to be thread-safe (MUMPS
-// keeps global state), so SolveWithIpopt holds one process-wide lock for the whole solve: Ipopt
-// solves from several threads run one after another, with the same results as in sequence.
-// Evaluation (libexpr tapes with per-Nlp workspaces) and Ceres solves may run in threads, one Nlp
-// per thread (an Nlp is move-only for that reason). Parallel Ipopt fits run in separate
-// processes.
+// keeps global state), so Ipopt's own code (the step computation, the factorisation, the line
+// search) runs under one process-wide lock: two solves never execute Ipopt at the same time.
+// SolveWithIpopt releases the lock while the Nlp evaluates (objective, constraints, Jacobian,
+// Hessian) and while the iteration callback runs, so the evaluations of solves in several threads
+// overlap with each other and with one solve's Ipopt step; the results are the same as in
+// sequence. Evaluation (libexpr tapes with per-Nlp workspaces) and Ceres solves may run in
+// threads, one Nlp per thread (an Nlp is move-only for that reason).
 #pragma once
 
 #include <functional>
@@ -131,7 +133,7 @@ struct SolverResult {
 };
 
 /// `start` (optional) replaces nlp.w0() and, with multipliers, warm-starts Ipopt
-/// (warm_start_init_point). Serialised by a process-wide lock (see the file comment).
+/// (warm_start_init_point). Ipopt's own code runs under a process-wide lock (see the file comment).
 SolverResult SolveWithIpopt(const Nlp& nlp, const IpoptOptions& options = {},
                             const WarmStart* start = nullptr);
 

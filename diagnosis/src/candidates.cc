@@ -42,6 +42,7 @@ struct FrictionKind {
 constexpr FrictionKind kFrictionKinds[] = {
     {"coulomb", "friction.coulomb", "friction.coulomb"},
     {"asymmetric_friction", "friction.offset", "friction.offset"},
+    {"asymmetric_friction", "friction.asymmetric", "friction.asymmetric"},
     {"stribeck", "friction.stribeck", "friction.stribeck"},
     {"viscous", "friction.viscous", "friction.viscous"},
     {"power_law_viscous", "friction.power_viscous", "friction.power_viscous"},
@@ -55,11 +56,18 @@ BlockOptions Motion(bool prismatic) {
   return o;
 }
 
-// The options a candidate of `type` is created with: the axis' motion, and for the Coulomb block
-// its smoothing steepness as a fixed setting (kDefaultFrictionSteepness) rather than a parameter.
+// Whether a candidate block's smoothing steepness is an option chosen from a grid by score (the
+// Coulomb level and the direction-dependent level: sign-like shapes).
+bool HasSteepnessGrid(const std::string& type) {
+  return type == models::kCoulombFriction || type == models::kAsymmetricFriction;
+}
+
+// The options a candidate of `type` is created with: the axis' motion, and for the sign-like
+// blocks their smoothing steepness as a fixed setting (kDefaultFrictionSteepness) rather than a
+// parameter.
 BlockOptions CandidateOptionsFor(const std::string& type, bool prismatic) {
   BlockOptions o = Motion(prismatic);
-  if (type == "friction.coulomb") o.numbers["steepness"] = {models::kDefaultFrictionSteepness};
+  if (HasSteepnessGrid(type)) o.numbers["steepness"] = {models::kDefaultFrictionSteepness};
   return o;
 }
 
@@ -373,16 +381,22 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
     double gravity;  // prismatic payload: g along +q
   };
   std::vector<Variant> variants;
-  // An added inertia next to a free inertia is the same unknown twice.
-  if (inertia && !body.mass_free) {
+  // An added inertia next to a free inertia is the same unknown twice. A sliding body has no rotor:
+  // its added mass is a payload.
+  if (inertia && !body.mass_free && !axis.prismatic) {
     variants.push_back({"rotor_inertia", models::kAddedInertia, models::kAddedInertia, 0.0});
   }
   if (payload && !axis.position.empty()) {
     if (axis.prismatic) {
-      variants.push_back(
-          {"payload", models::kPayload, "vertical, q up", -models::kStandardGravity});
-      variants.push_back(
-          {"payload", models::kPayload, "vertical, q down", models::kStandardGravity});
+      // Next to a free mass a prismatic payload's mass repeats it and its weight alone is a
+      // constant force (asymmetric_friction's constant offset): proposed on a known mass only.
+      if (!body.mass_free) {
+        variants.push_back({"payload", models::kPayload, "horizontal, added mass", 0.0});
+        variants.push_back(
+            {"payload", models::kPayload, "vertical, q up", -models::kStandardGravity});
+        variants.push_back(
+            {"payload", models::kPayload, "vertical, q down", models::kStandardGravity});
+      }
     } else {
       variants.push_back({"payload", models::kPayload, "rotational", 0.0});
     }
@@ -738,10 +752,14 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
         // the block is the excess fs exp(-(v/vs)^2) sign(v) alone.
         const bool repeats_coulomb = std::string(kind.type) == "friction.stribeck" &&
                                      p.name == "fc" && present("friction.coulomb");
+        // The direction-dependent candidate is the difference of the levels alone: its even
+        // viscous term (a second, rarer shape) held at 0, so it does not fit any even residual.
+        const bool even_viscous =
+            kind.type == std::string(models::kAsymmetricFriction) && p.name == "fvd";
         // LuGre's micro-damping and viscous term: at sigma0 = 0, dz/dt = v, so both act as
         // viscous friction there (not a presliding direction); tested by the viscous candidate.
         const bool viscous_at_neutral = lugre && (p.name == "sigma1" || p.name == "sigma2");
-        if (repeats_viscous || repeats_coulomb) {
+        if (repeats_viscous || repeats_coulomb || even_viscous) {
           held.push_back(q);
         } else if (viscous_at_neutral) {
           held.push_back(q);
@@ -772,7 +790,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       }
       const std::string instance = c.instance, velocity = axis.velocity,
                         connection = axis.connection;
-      if (std::string(kind.type) == "friction.coulomb") {
+      if (HasSteepnessGrid(kind.type)) {
         c.option_grids.push_back({"steepness",
                                   Candidate::ShapeGrid::Scale::kStateRms,
                                   axis.velocity,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -525,7 +526,7 @@ std::string IntegrationCheck(const est::Problem& aug, const std::vector<est::Spl
 // it is usable, no freed shape parameter ends at a bound and its cost is not above A's.
 RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
                   const est::FitResult& nominal, const CandidateScore& screened,
-                  const std::string& role, double before, double max_solve_seconds) {
+                  const std::string& role, double before, double max_seconds) {
   const Candidate& c = screened.candidate;
   RefitResult out;
   out.candidate = c;
@@ -538,10 +539,22 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
   out.relative_gain = kNaN;
   out.aic = out.bic = kNaN;
   try {
+    const auto started = std::chrono::steady_clock::now();
     const est::Problem aug = AugmentedProblem(problem, nominal, c, false);
     est::FitOptions fo;
-    fo.max_solve_seconds = max_solve_seconds;
+    fo.max_solve_seconds = max_seconds;
     est::FitSession session(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
+    // The budget spread over the solves: each may iterate for what is left; false once spent.
+    auto budget_left = [&]() {
+      if (!(max_seconds > 0.0)) return true;
+      const double left =
+          max_seconds -
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      if (!(left > 0.0)) return false;
+      session.SetMaxSolveSeconds(left);
+      return true;
+    };
+    bool spent = false;
     std::vector<double> neutral;
     neutral.assign(c.screened.size(), 0.0);
     for (std::size_t i = 0; i < c.screened.size(); ++i) {
@@ -561,8 +574,9 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         }
       }
     }
+    budget_left();
     est::FitResult a = session.Solve();
-    if (started_one_step && !a.IsSolutionUsable()) {
+    if (started_one_step && !a.IsSolutionUsable() && budget_left()) {
       for (std::size_t i = 0; i < c.screened.size(); ++i) {
         session.SetParameterValue(c.screened[i], neutral[i]);
       }
@@ -576,8 +590,14 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       if (!a.IsSolutionUsable()) break;
       double best_value = a.Parameter(shape).value;
       const double first = best_value;
+      std::size_t tried = 1;
       for (const double v : values) {
         if (v == first) continue;
+        if (!budget_left()) {
+          spent = true;
+          break;
+        }
+        ++tried;
         session.SetParameterValue(shape, v);
         est::FitResult trial = session.Solve(&a);
         if (trial.IsSolutionUsable() && trial.solver_result.cost < a.solver_result.cost) {
@@ -587,8 +607,10 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       }
       session.SetParameterValue(shape, best_value);
       char line[160];
-      std::snprintf(line, sizeof(line), "%s profiled over %zu grid values: %.4g (score's %.4g)",
-                    shape.c_str(), values.size(), best_value, first);
+      std::snprintf(line, sizeof(line),
+                    "%s profiled over %zu of %zu grid values%s: %.4g (score's %.4g)", shape.c_str(),
+                    tried, values.size(),
+                    tried < values.size() ? " (the re-fit's budget spent)" : "", best_value, first);
       out.stages.push_back(line);
     }
     out.fit = std::move(a);
@@ -598,11 +620,15 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         shapes.push_back(q);
       }
     }
-    if (!shapes.empty() && out.fit.IsSolutionUsable()) {
+    if (!shapes.empty() && out.fit.IsSolutionUsable() && (spent || !budget_left())) {
+      out.stages.push_back(
+          "shape parameters held (at the nominal or profiled values): the "
+          "re-fit's budget was spent");
+    } else if (!shapes.empty() && out.fit.IsSolutionUsable()) {
       for (const auto& q : shapes) session.FreeParameter(q);
       est::FitResult b = session.Solve(&out.fit);
       std::string held;
-      if (!b.IsSolutionUsable()) {
+      if (!b.IsSolutionUsable() || !b.solver_result.success) {
         held = "the re-fit with them free stopped with " + b.solver_result.status;
       } else if (b.solver_result.cost > out.fit.solver_result.cost * (1.0 + 1e-6)) {
         char line[200];

@@ -111,6 +111,37 @@ class OffsetFriction : public BlockBase<OffsetFriction> {
   }
 };
 
+// ---- friction.asymmetric ------------------------------------------------------------------------
+class AsymmetricFriction : public BlockBase<AsymmetricFriction> {
+ public:
+  explicit AsymmetricFriction(const BlockOptions& options) {
+    CheckOptionKeys(kAsymmetricFriction, options, {"steepness", "motion"});
+    steepness_ =
+        PositiveOption(kAsymmetricFriction, options, "steepness", kDefaultFrictionSteepness);
+    info_.type = kAsymmetricFriction;
+    info_.description =
+        "Direction-dependent friction, even in the velocity: tau = fd tanh(s qd)^2 + fvd qd "
+        "tanh(s qd) (levels fc + fd forward, fc - fd backward beside a symmetric Coulomb term).";
+    info_.reference = "graybox (friction.h); zero at rest, unlike the constant friction.offset";
+    info_.inputs = {Velocity(kSeaSpeed)};
+    info_.outputs = {Torque(0.02)};
+    info_.parameters = {
+        MakeParameter("fd", "N m", "half the forward minus backward Coulomb level", 0.0, -kInf,
+                      kInf, 0.0),
+        MakeParameter("fvd", "N m s/rad", "half the forward minus backward viscous coefficient",
+                      0.0, -kInf, kInf, 0.0)};
+    ApplyMotionUnits(kAsymmetricFriction, options, &info_);
+  }
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    const Scalar t = SmoothSign(a.u[0], Scalar(steepness_));
+    a.y[0] = a.p[0] * t * t + a.p[1] * a.u[0] * t;
+  }
+
+ private:
+  double steepness_ = kDefaultFrictionSteepness;
+};
+
 // ---- friction.stribeck --------------------------------------------------------------------------
 class StribeckFriction : public BlockBase<StribeckFriction> {
  public:
@@ -396,6 +427,7 @@ void RegisterFrictionBlocks(BlockRegistry& registry) {
   registry.Register(kViscousFriction, Factory<ViscousFriction>());
   registry.Register(kCoulombFriction, Factory<CoulombFriction>());
   registry.Register(kOffsetFriction, Factory<OffsetFriction>());
+  registry.Register(kAsymmetricFriction, Factory<AsymmetricFriction>());
   registry.Register(kStribeckFriction, Factory<StribeckFriction>());
   registry.Register(kPowerViscousFriction, Factory<PowerViscousFriction>());
   registry.Register(kDahlFriction, Factory<DahlFriction>());

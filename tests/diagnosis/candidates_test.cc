@@ -260,17 +260,18 @@ TEST(Candidates, FeedbackSensorOffsetIsAShiftOfTheLoop) {
 }
 
 TEST(Candidates, AddedLoadsOnRigidBodiesOnly) {
-  // The inertia free: an added inertia would repeat it; a payload's weight is new.
-  EXPECT_EQ(Names(Enumerate(ForceSlide(), {"rotor_inertia", "payload"})),
-            (std::vector<std::string>{
-                "payload (vertical, q up) on force force -> load, position load.q",
-                "payload (vertical, q down) on force force -> load, position load.q"}));
-  // CommandSlide's inertia is free too; fixed, the added inertia is proposed.
+  // A sliding body with a free mass: an added mass would repeat it and a payload's weight alone
+  // is a constant force (asymmetric_friction's offset); no rotor on a sliding body.
+  EXPECT_TRUE(Enumerate(ForceSlide(), {"rotor_inertia", "payload"}).empty());
+  EXPECT_TRUE(Enumerate(CommandSlide(), {"rotor_inertia", "payload"}).empty());
+  // With the mass known: a payload, horizontal or in either vertical direction.
   models::Model fixed = CommandSlide();
   fixed.Fix("cart.mass");
-  EXPECT_EQ(Names(Enumerate(fixed, {"rotor_inertia"})),
-            std::vector<std::string>{"rotor_inertia (mechanics.added_inertia) on force f -> cart"});
-  EXPECT_TRUE(Enumerate(CommandSlide(), {"rotor_inertia"}).empty());
+  EXPECT_EQ(Names(Enumerate(fixed, {"rotor_inertia", "payload"})),
+            (std::vector<std::string>{
+                "payload (horizontal, added mass) on force f -> cart, position cart.q",
+                "payload (vertical, q up) on force f -> cart, position cart.q",
+                "payload (vertical, q down) on force f -> cart, position cart.q"}));
   // Rotational: one payload with gravity on sin q, cos q; its inertia screened only when the
   // arm's inertia is known.
   const std::vector<Candidate> known = Enumerate(Arm(false), {"rotor_inertia", "payload"});
@@ -285,11 +286,11 @@ TEST(Candidates, AddedLoadsOnRigidBodiesOnly) {
   EXPECT_EQ(free[0].screened, (std::vector<std::string>{"payload.g_s", "payload.g_c"}));
   // A DC motor integrates its own torque balance: no rigid body to load.
   EXPECT_TRUE(Enumerate(MotorWithoutAngle(), {"rotor_inertia", "payload"}).empty());
-  // The added inertia divides the whole net force, friction included: at dM = M the
-  // acceleration halves.
+  // The added mass divides the whole net force, friction included: at m = M the acceleration
+  // halves.
   models::Model m = fixed;
-  const std::vector<Candidate> ri = Enumerate(fixed, {"rotor_inertia"});
-  ASSERT_EQ(ri.size(), 1u);
+  const std::vector<Candidate> ri = Enumerate(fixed, {"payload"});
+  ASSERT_EQ(ri.size(), 3u);
   ri[0].apply(&m);
   m.SetParameter(ri[0].parameters[0], 1.0);  // cart.mass = 1 kg
   const models::StateSpaceModel a = m.Build(), b = fixed.Build();

@@ -172,9 +172,9 @@ TEST(EnumerateCandidates, FindsTheAxisFromMetadata) {
   const std::vector<Candidate> candidates = EnumerateCandidates(problem, friction_and_delay);
   std::vector<std::string> effects;
   for (const auto& c : candidates) effects.push_back(c.effect);
-  const std::vector<std::string> expected = {"coulomb",    "asymmetric_friction",
-                                             "stribeck",   "power_law_viscous",
-                                             "presliding", "input_delay"};
+  const std::vector<std::string> expected = {
+      "coulomb",           "asymmetric_friction", "asymmetric_friction", "stribeck",
+      "power_law_viscous", "presliding",          "input_delay"};
   EXPECT_EQ(effects, expected);
   // Every candidate leaves the model's outputs unchanged at its neutral value.
   const models::StateSpaceModel base = m.Build();

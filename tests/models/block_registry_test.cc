@@ -239,6 +239,7 @@ TEST(BlockRegistry, AxisSignalsOfMechanicalBlocksHaveTheirRoles) {
       {"friction.viscous", friction},
       {"friction.coulomb", friction},
       {"friction.offset", friction},
+      {"friction.asymmetric", friction},
       {"friction.stribeck", friction},
       {"friction.power_viscous", friction},
       {"friction.dahl", friction},  // z, the bristle deflection, has none

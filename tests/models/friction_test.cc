@@ -91,9 +91,9 @@ std::vector<std::string> FrictionTypes() {
 
 TEST(Friction, EveryBlockOfTheHeaderIsRegistered) {
   const std::vector<std::string> expected = {
-      kViscousFriction,      kCoulombFriction, kOffsetFriction, kStribeckFriction,
-      kPowerViscousFriction, kDahlFriction,    kLuGreFriction,  kTorqueDependentFriction,
-      kRippleFriction,       kKukaFriction};
+      kViscousFriction,         kCoulombFriction,      kOffsetFriction, kAsymmetricFriction,
+      kStribeckFriction,        kPowerViscousFriction, kDahlFriction,   kLuGreFriction,
+      kTorqueDependentFriction, kRippleFriction,       kKukaFriction};
   const std::vector<std::string> types = FrictionTypes();
   for (const auto& t : expected) {
     EXPECT_NE(std::find(types.begin(), types.end(), t), types.end()) << t;
@@ -159,6 +159,28 @@ TEST(Friction, ViscousAndOffset) {
   const auto offset = Make(kOffsetFriction);
   EXPECT_EQ(Output(*offset, {}, Scalar1(-1.7), Scalar1(14.0625)), 14.0625);
   EXPECT_EQ(Output(*offset, {}, Scalar1(1.7), Scalar1(14.0625)), 14.0625);
+}
+
+// Beside a symmetric Coulomb-viscous term the forward and backward friction differ by 2 fd at
+// speed and by 2 fvd per unit speed; at rest it is zero.
+TEST(Friction, AsymmetricIsEvenInTheVelocityAndZeroAtRest) {
+  BlockOptions o;
+  o.numbers["steepness"] = {200.0};
+  const auto asym = Make(kAsymmetricFriction, o);
+  ASSERT_EQ(asym->NumParameters(), 2);
+  const Eigen::Vector2d p(3.0, 0.5);
+  EXPECT_EQ(Output(*asym, {}, Scalar1(0.0), p), 0.0);
+  for (const double qd : {0.001, 0.02, 0.7}) {
+    const double t = std::tanh(200.0 * qd);
+    EXPECT_NEAR(Output(*asym, {}, Scalar1(qd), p), 3.0 * t * t + 0.5 * qd * t, kRoundoff);
+    EXPECT_NEAR(Output(*asym, {}, Scalar1(-qd), p), Output(*asym, {}, Scalar1(qd), p), kRoundoff);
+  }
+  // Fast enough that tanh is 1: forward 20 + 3 + (1 + 0.5) v, backward -(20 - 3) - (1 - 0.5) v.
+  const double v = 0.7;
+  const double forward = 20.0 + 1.0 * v + Output(*asym, {}, Scalar1(v), p);
+  const double backward = -20.0 - 1.0 * v + Output(*asym, {}, Scalar1(-v), p);
+  EXPECT_NEAR(forward, 23.0 + 1.5 * v, kRoundoff);
+  EXPECT_NEAR(backward, -(17.0 + 0.5 * v), kRoundoff);
 }
 
 TEST(Friction, CoulombSteepnessIsAParameterUnlessFixedByTheOption) {

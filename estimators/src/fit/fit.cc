@@ -207,6 +207,15 @@ void FitSession::SetParameterValue(const std::string& name, double value) {
   }
 }
 
+void FitSession::SetMaxSolveSeconds(double seconds) {
+  if (!(seconds >= 0.0) || !std::isfinite(seconds)) {
+    throw std::invalid_argument(
+        "FitSession::SetMaxSolveSeconds: expected a finite value >= 0, got " +
+        std::to_string(seconds));
+  }
+  state_->options.max_solve_seconds = seconds;
+}
+
 void FitSession::FixParameter(const std::string& name) {
   State& s = *state_;
   const int i = FindParameter(s.problem.built, name);

@@ -40,7 +40,11 @@
 //                                               over the RMS of the axis velocity
 //                                               (Candidate::option_grids; without data the
 //                                               block's default, 100 s/rad or s/m)
-//   asymmetric_friction  friction.offset        f_asym free (neutral 0)
+//   asymmetric_friction  friction.offset        f_asym free (neutral 0): a constant force
+//   asymmetric_friction  friction.asymmetric    fd free (neutral 0): Coulomb levels that differ
+//                                               by direction, zero at rest; fvd (the even
+//                                               viscous term) held at 0; the steepness chosen
+//                                               like the Coulomb candidate's
 //   stribeck             friction.stribeck      fc, fs free (neutral 0); vs held at nominal
 //                                               for the test, freed to re-fit; fv held at 0
 //                                               when friction.viscous is on the axis (it would
@@ -123,18 +127,22 @@
 //                  mechanics.mass that reads F (not drive.two_mass, drive.dc_motor: their torque
 //                  balances are inside the block). M (option axis_inertia) is the body's inertia
 //                  parameter's value when the candidate is applied (the nominal fit's in
-//                  screening). Proposed only when that parameter is fixed: next to a free inertia
-//                  dM is the same unknown. Detail "mechanics.added_inertia", attachment "force F ->
-//                  <body>".
+//                  screening). Proposed only when that parameter is fixed (next to a free inertia
+//                  dM is the same unknown) and on rotational axes (a sliding body has no rotor: its
+//                  added mass is a payload). Detail "mechanics.added_inertia", attachment "force
+//                  F -> <body>".
 //   payload        mechanics.payload  on the same bodies, reading the axis position too:
 //                  rotational: (F - g_s sin q - g_c cos q) / (1 + dM / M), g_s, g_c, dM free
 //                  (neutral 0; dM held at 0 when the body's inertia is free, as above), detail
 //                  "rotational"; its gravity part equals a ripple of period 2 pi, the inertia
-//                  tells them apart. Prismatic: (F + m g_q) / (1 + m / M), m free (neutral 0),
-//                  one candidate per direction of the axis, detail "vertical, q up" (g_q = -9.81)
-//                  and "vertical, q down" (+9.81): the score test sees both alike (a sign), the
-//                  re-fit keeps the one with m >= 0 interior. A horizontal payload is a
-//                  rotor_inertia. Attachment "force F -> <body>, position q".
+//                  tells them apart. Prismatic, only when the body's mass is fixed (next to a
+//                  free mass m repeats it and m g_q alone is a constant force, which
+//                  asymmetric_friction's constant offset proposes): (F + m g_q) / (1 + m / M), m
+//                  free (neutral 0), detail "horizontal, added mass" (g_q = 0), "vertical, q up"
+//                  (g_q = -9.81) and "vertical, q down" (+9.81): the score test sees the vertical
+//                  two alike (a sign), the re-fit keeps the one with m >= 0 interior. On a rigid
+//                  axis an added mass cannot be told from a reflected rotor inertia; the name
+//                  says where it is on a sliding body. Attachment "force F -> <body>, position q".
 //   backlash       transmission.backlash  b free (neutral 0, >= 0): on every drive.two_mass
 //                  that has no backlash parameter (and reads two distinct torque signals): reads
 //                  the joint's q_m, q_l, qd_m, qd_l, writes the joint-torque change

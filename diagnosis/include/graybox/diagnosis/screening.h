@@ -102,12 +102,14 @@
 //      Coulomb sign near standstill, then stall there).
 //   B. when the candidate has shape parameters: they are freed too, warm-started from A's
 //      estimates (parameters, method variables and multipliers: FitSession::Solve). B replaces
-//      A when its point is usable, no freed shape parameter ends at a bound, its cost is not
+//      A when its solver converged, no freed shape parameter ends at a bound, its cost is not
 //      above A's (they are nested: B can only lower it) and its validation NRMSE is not above
 //      A's (a freed shape can fit the estimation data's peculiarities: a Stribeck velocity
 //      shrinking to 1.6 mm/s with a 300 N peak fitted the standstill phases of point-to-point
 //      moves and raised the validation error by 12 %); otherwise A is kept, the reason in
 //      RefitResult::stages.
+// The stages share the re-fit's time budget (ScreeningOptions::refit_max_seconds): once it is
+// spent the remaining grid values and stage B are skipped and A's best point is the re-fit.
 // A re-fit is ok when the solver converged (SolverResult::success: a re-fit stopped at its
 // iteration limit is reported, not ranked), its validation NRMSE is finite, and, with a fixed-step
 // integrator, that NRMSE changes by at most 10 % when the validation splits are simulated again
@@ -161,12 +163,15 @@ struct ScreeningOptions {
   /// first only when its validation NRMSE is lower than the simpler one's by more than
   /// nested_margin x the nominal validation NRMSE (>= 0).
   double nested_margin = 0.02;
-  /// Budget of each solve of a re-fit [s] from its first iteration (FitOptions::
-  /// max_solve_seconds); 0: automatic, 20 times the nominal fit's solve time and at least 10 s
-  /// (a re-fit is a warm-started fit of a model one block larger). A re-fit stopped by it is
-  /// reported as not converged, never ranked: an unattended diagnosis must not hang on one
-  /// candidate (a ripple re-fit on EMPS took 150 s where the nominal fit takes 0.8 s; a
-  /// payload's unmeasured angle made MUMPS reallocate for minutes).
+  /// Budget of each re-fit [s], wall time over all its solves (stage A, the profile over the
+  /// shape grids, stage B): each solve may iterate for what is left (FitOptions::
+  /// max_solve_seconds, checked at every iteration); the profile and stage B are skipped once it
+  /// is spent (said in RefitResult::stages). 0: automatic, 20 times the nominal fit's solve time
+  /// and at least 10 s (a re-fit is a warm-started fit of a model one block larger). A re-fit
+  /// whose stage A is stopped by it is reported as not converged, never ranked: an unattended
+  /// diagnosis must not hang on one candidate (a ripple re-fit on EMPS took 150 s where the
+  /// nominal fit takes 0.8 s). A single iteration is not interrupted (a payload's unmeasured
+  /// angle once made MUMPS reallocate for minutes within one).
   double refit_max_seconds = 0.0;
   /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
   /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt's own code

@@ -25,10 +25,10 @@
 // signals and parameters change (N m -> N, kg m^2 -> kg, rad -> m: fv in N s/m, steepness in s/m).
 //
 // ---- Neutral values ---------------------------------------------------------------------------
-// Every friction coefficient (fv, fc, fs, ftau, f_asym, f_vis, f_coul, f_a, sigma0, sigma1,
-// sigma2, a_k, b_k) has neutral value 0: with every neutral parameter at 0 and states starting at
-// 0, a block outputs exactly zero torque for every input, so Model::Augment leaves the model
-// unchanged. Shape parameters (a Stribeck velocity, a steepness such as f_b, an exponent, a
+// Every friction coefficient (fv, fc, fs, ftau, f_asym, fd, fvd, f_vis, f_coul, f_a, sigma0,
+// sigma1, sigma2, a_k, b_k) has neutral value 0: with every neutral parameter at 0 and states
+// starting at 0, a block outputs exactly zero torque for every input, so Model::Augment leaves the
+// model unchanged. Shape parameters (a Stribeck velocity, a steepness such as f_b, an exponent, a
 // relaxation distance or time) and the levels fc, fs of Dahl and LuGre (they divide there) have
 // no neutral value (NaN) and stay at their nominal values: the output is zero whatever they are,
 // and their nominal values keep every expression finite.
@@ -82,6 +82,19 @@
 //     tau = f_asym
 //   input  qd [rad/s] (-2, 2), not used (read so that every friction block wires the same way)
 //   f_asym [N m]  0 (-inf, inf)  neutral 0   constant offset (roblue joints: -47 .. 14 N m)
+//
+// "friction.asymmetric"  (direction-dependent friction; even in qd)
+//     tau = fd tanh(s qd)^2 + fvd qd tanh(s qd)
+//   Added to a symmetric Coulomb-viscous term fc sign(qd) + fv qd, the friction moving forward is
+//   (fc + fd) + (fv + fvd) qd and moving backward (fc - fd) + (fv - fvd) |qd|: levels that differ
+//   by direction (a preloaded seal, a belt, a guide loaded on one side). Unlike friction.offset it
+//   vanishes at rest (tanh^2 and qd tanh are 0 at qd = 0), so it holds no force at standstill.
+//   input  qd [rad/s] (-20, 20);  output tau [N m]
+//   fd  [N m]        0 (-inf, inf)  neutral 0   half the difference of the forward and backward
+//                                               Coulomb levels
+//   fvd [N m s/rad]  0 (-inf, inf)  neutral 0   half the difference of the viscous coefficients
+//   option "steepness" s [s/rad] (default kDefaultFrictionSteepness): tanh(s qd)^2 is within
+//   1 % of 1 above |qd| = 2.6 / s; qd tanh(s qd) is the smoothed |qd| of "Smoothing".
 //
 // "friction.stribeck"  (seed 002 eq. 5-2, 5-3)
 //     g(qd) = fc + (fs - fc) exp(-|qd/vs|^a),   tau = g(qd) tanh(s qd) + fv qd
@@ -193,6 +206,7 @@ namespace graybox::models {
 inline constexpr char kViscousFriction[] = "friction.viscous";
 inline constexpr char kCoulombFriction[] = "friction.coulomb";
 inline constexpr char kOffsetFriction[] = "friction.offset";
+inline constexpr char kAsymmetricFriction[] = "friction.asymmetric";
 inline constexpr char kStribeckFriction[] = "friction.stribeck";
 inline constexpr char kPowerViscousFriction[] = "friction.power_viscous";
 inline constexpr char kDahlFriction[] = "friction.dahl";

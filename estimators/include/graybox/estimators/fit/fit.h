@@ -207,6 +207,10 @@ class FitSession {
   void SetParameterValue(const std::string& name, double value);
   /// Holds a parameter at its current value in the next solves.
   void FixParameter(const std::string& name);
+  /// The time budget of the next solves (FitOptions::max_solve_seconds; >= 0, 0: no limit), for a
+  /// caller that spreads one budget over several solves. std::invalid_argument when negative or
+  /// not finite.
+  void SetMaxSolveSeconds(double seconds);
   /// Lets a parameter move within its bounds in the next solves (reformulates when it was fixed
   /// when the session was built).
   void FreeParameter(const std::string& name);

@@ -798,14 +798,15 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
                                   true});
         const bool prismatic = axis.prismatic;
         const std::string type = kind.type;
-        c.apply_with_option = [type, prismatic, instance, velocity, connection](models::Model* m,
-                                                                                double steepness) {
+        c.apply_with_option = [type, prismatic, instance, velocity, connection, held](
+                                  models::Model* m, double steepness) {
           BlockOptions o = CandidateOptionsFor(type, prismatic);
           o.numbers["steepness"] = {steepness};
           m->Augment(
               instance,
               std::shared_ptr<const models::Block>(models::BlockRegistry::Global().Create(type, o)),
               {velocity}, {connection});
+          for (const auto& q : held) m->Fix(q);
         };
       }
       c.augmentation = {models::Augmentation::Kind::kAdd,

@@ -42,8 +42,9 @@ TEST(DiagnoseCli, EmpsWithoutCoulombNamesCoulombInDiagnosisJson) {
   EXPECT_GT(d["accepted"][0]["gap_closed"].get<double>(), kMinGapClosed);
   EXPECT_LT(d["remainder"]["validation_nrmse"].get<double>(),
             d["nominal"]["validation_nrmse"].get<double>());
-  // viscous and asymmetric_friction are on the axis already: coulomb is the one candidate left.
-  EXPECT_EQ(d["rounds"][0]["screened"].size(), 1u);
+  // viscous and the constant offset are on the axis already: coulomb and the direction-dependent
+  // level are the candidates left.
+  EXPECT_EQ(d["rounds"][0]["screened"].size(), 2u);
   EXPECT_FALSE(d["run"]["revision"].get<std::string>().empty());
   EXPECT_TRUE(fs::exists(dir / "out/report.html"));
   EXPECT_TRUE(d["reference"]["ok"].get<bool>()) << d["reference"]["failure"];

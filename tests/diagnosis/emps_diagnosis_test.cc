@@ -83,8 +83,8 @@ double TrueStructureNrmse() {
   return full.Evaluation("test_pulses").simulation.overall.nrmse;
 }
 
-void ExpectShrinkageOfTheTrueStructure(const RefitResult& best) {
-  const double truth = TrueStructureNrmse();
+void ExpectShrinkageOfTheTrueStructure(const RefitResult& best,
+                                       double truth = TrueStructureNrmse()) {
   const double estimated = best.validation_nrmse_before - best.validation_nrmse_after;
   const double achievable = best.validation_nrmse_before - truth;
   std::cout << "test NRMSE: nominal " << best.validation_nrmse_before << ", with " << best.effect
@@ -128,23 +128,34 @@ TEST(EmpsDiagnosis, WithheldAsymmetryIsNamedAndShrinksTheErrorAsTheTrueStructure
   if (!HaveEmps()) GTEST_SKIP() << "no EMPS data in " << GRAYBOX_SHARED_DATA_DIR;
   const Diagnosis d = DiagnoseWithout("offset");
   ASSERT_FALSE(d.screened.empty());
-  // On this closed loop a constant force on the axis (the withheld asymmetry), a vertical
-  // payload's weight and an offset of the logged command nu are one signature: they score within
-  // 1 % of each other and their re-fits reach test NRMSEs within 0.3 % (the held-out record picks
-  // the command offset by 0.0507 against 0.0508). Any of them names the withheld term.
+  // On this closed loop a force on the axis that is constant while it moves (the withheld
+  // asymmetry, as a constant or a direction-dependent level) and an offset of the logged command
+  // nu are one signature: they score within 3 % of each other and their re-fits reach test NRMSEs
+  // within 0.5 %. Any of them names the withheld term.
   auto same_signature = [](const std::string& e) {
-    return e == "asymmetric_friction" || e == "payload" || e == "sensor_offset";
+    return e == "asymmetric_friction" || e == "sensor_offset";
   };
   EXPECT_TRUE(same_signature(d.screened.front().candidate.effect)) << d.BriefReport();
   ASSERT_FALSE(d.refits.empty());
-  const RefitResult& best = d.refits.front();
-  ASSERT_TRUE(best.ok) << best.failure;
-  EXPECT_TRUE(same_signature(best.effect)) << d.BriefReport();
+  // A re-fit may rank above the withheld term only by explaining more than the true structure
+  // does: on EMPS a scale of the logged voltage nu reaches test NRMSE 0.046 against the true
+  // structure's 0.051 (the full diagnosis accepts both, docs/diagnosis.md).
+  const double truth = TrueStructureNrmse();
+  const RefitResult* best = nullptr;
+  for (const RefitResult& r : d.refits) {
+    if (!r.ok) continue;
+    if (same_signature(r.effect)) {
+      best = &r;
+      break;
+    }
+    EXPECT_LT(r.validation_nrmse_after, truth) << r.effect << " ranks above the withheld term";
+  }
+  ASSERT_NE(best, nullptr) << d.FullReport();
   bool asymmetry_refitted = false;
   for (const RefitResult& r : d.refits) asymmetry_refitted |= r.effect == "asymmetric_friction";
   EXPECT_TRUE(asymmetry_refitted) << d.FullReport();
-  EXPECT_LT(best.validation_nrmse_after, best.validation_nrmse_before);
-  ExpectShrinkageOfTheTrueStructure(best);
+  EXPECT_LT(best->validation_nrmse_after, best->validation_nrmse_before);
+  ExpectShrinkageOfTheTrueStructure(*best, truth);
 }
 
 }  // namespace

@@ -68,6 +68,7 @@ bool HasSteepnessGrid(const std::string& type) {
 BlockOptions CandidateOptionsFor(const std::string& type, bool prismatic) {
   BlockOptions o = Motion(prismatic);
   if (HasSteepnessGrid(type)) o.numbers["steepness"] = {models::kDefaultFrictionSteepness};
+  if (type == models::kDahlFriction) o.words["form"] = "length";
   return o;
 }
 
@@ -756,10 +757,13 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
         // viscous term (a second, rarer shape) held at 0, so it does not fit any even residual.
         const bool even_viscous =
             kind.type == std::string(models::kAsymmetricFriction) && p.name == "fvd";
+        // Its constant part next to a friction.offset repeats that term.
+        const bool repeats_offset = kind.type == std::string(models::kAsymmetricFriction) &&
+                                    p.name == "f0" && present(models::kOffsetFriction);
         // LuGre's micro-damping and viscous term: at sigma0 = 0, dz/dt = v, so both act as
         // viscous friction there (not a presliding direction); tested by the viscous candidate.
         const bool viscous_at_neutral = lugre && (p.name == "sigma1" || p.name == "sigma2");
-        if (repeats_viscous || repeats_coulomb || even_viscous) {
+        if (repeats_viscous || repeats_coulomb || even_viscous || repeats_offset) {
           held.push_back(q);
         } else if (viscous_at_neutral) {
           held.push_back(q);
@@ -779,11 +783,21 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
         c.reduces_to.push_back("viscous");
       }
       if (lugre) c.reduces_to.push_back("presliding");
+      // With its constant part free it contains the constant offset (the other variant).
+      if (kind.type == std::string(models::kAsymmetricFriction) &&
+          !present(models::kOffsetFriction)) {
+        c.reduces_to.push_back("asymmetric_friction");
+      }
       if (std::string(kind.type) == "friction.stribeck") {
         c.shape_grids.push_back({c.instance + ".vs",
                                  Candidate::ShapeGrid::Scale::kStateRms,
                                  axis.velocity,
                                  {0.03, 0.1, 0.3, 1.0}});
+      } else if (std::string(kind.type) == models::kDahlFriction) {
+        c.shape_grids.push_back({c.instance + ".delta",
+                                 Candidate::ShapeGrid::Scale::kStateRmsTimesSampleTime,
+                                 axis.velocity,
+                                 {1.0, 3.0, 10.0, 30.0}});
       } else if (std::string(kind.type) == "friction.power_viscous") {
         c.shape_grids.push_back(
             {c.instance + ".k", Candidate::ShapeGrid::Scale::kAbsolute, "", {0.3, 0.6, 2.0}});

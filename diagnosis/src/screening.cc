@@ -301,6 +301,13 @@ double ShapeScale(const est::Problem& problem, const std::vector<est::SplitData>
     }
     return kNaN;
   }
+  double dt = kNaN;
+  for (const est::SplitData& split : splits) {
+    if (split.role == est::SplitRole::kEstimation) {
+      dt = split.experiment.dt;
+      break;
+    }
+  }
   const models::StateSpaceModel& m = problem.built;
   int state = -1;
   for (int i = 0; i < m.NumStates(); ++i) {
@@ -322,7 +329,8 @@ double ShapeScale(const est::Problem& problem, const std::vector<est::SplitData>
     sum += t.x.col(state).squaredNorm();
     count += t.x.rows();
   }
-  return count > 0 ? std::sqrt(sum / count) : kNaN;
+  const double rms = count > 0 ? std::sqrt(sum / count) : kNaN;
+  return grid.scale == Scale::kStateRmsTimesSampleTime ? rms * dt : rms;
 }
 
 // Scores each of `variants` (the simulation score) and keeps the best in *out (candidate, score,

@@ -120,12 +120,15 @@ class AsymmetricFriction : public BlockBase<AsymmetricFriction> {
         PositiveOption(kAsymmetricFriction, options, "steepness", kDefaultFrictionSteepness);
     info_.type = kAsymmetricFriction;
     info_.description =
-        "Direction-dependent friction, even in the velocity: tau = fd tanh(s qd)^2 + fvd qd "
-        "tanh(s qd) (levels fc + fd forward, fc - fd backward beside a symmetric Coulomb term).";
-    info_.reference = "graybox (friction.h); zero at rest, unlike the constant friction.offset";
+        "Asymmetric friction: tau = f0 + fd tanh(s qd)^2 + fvd qd tanh(s qd), a constant part and "
+        "direction-dependent parts (levels fc + fd forward, fc - fd backward beside a symmetric "
+        "Coulomb term).";
+    info_.reference = "graybox (friction.h); its direction-dependent parts are zero at rest";
     info_.inputs = {Velocity(kSeaSpeed)};
     info_.outputs = {Torque(0.02)};
     info_.parameters = {
+        MakeParameter("f0", "N m", "constant part, also at rest (as friction.offset)", 0.0, -kInf,
+                      kInf, 0.0),
         MakeParameter("fd", "N m", "half the forward minus backward Coulomb level", 0.0, -kInf,
                       kInf, 0.0),
         MakeParameter("fvd", "N m s/rad", "half the forward minus backward viscous coefficient",
@@ -135,7 +138,7 @@ class AsymmetricFriction : public BlockBase<AsymmetricFriction> {
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
     const Scalar t = SmoothSign(a.u[0], Scalar(steepness_));
-    a.y[0] = a.p[0] * t * t + a.p[1] * a.u[0] * t;
+    a.y[0] = a.p[0] + a.p[1] * t * t + a.p[2] * a.u[0] * t;
   }
 
  private:
@@ -211,19 +214,33 @@ class PowerViscousFriction : public BlockBase<PowerViscousFriction> {
 class DahlFriction : public BlockBase<DahlFriction> {
  public:
   explicit DahlFriction(const BlockOptions& options) {
-    CheckOptionKeys(kDahlFriction, options, {"motion"});
+    CheckOptionKeys(kDahlFriction, options, {"motion", "form"});
+    length_form_ = WordOption(kDahlFriction, options, "form", "stiffness",
+                              {"stiffness", "length"}) == "length";
     info_.type = kDahlFriction;
-    info_.description =
-        "Dahl friction: bristle deflection z with dz/dt = qd - sigma0 |qd| z / fc, tau = sigma0 z "
-        "(rate-independent hysteresis, pre-sliding stiffness sigma0).";
     info_.reference = "seed 002 eq. 5-4 and 5-5; nominal fc from seed 002 Table 8.2 (Dahl)";
     info_.inputs = {Velocity(kSeaSpeed)};
-    info_.states = {{"z", "rad", "bristle deflection", -1e-3, 1e-3}};
     info_.outputs = {Torque(0.04)};
-    info_.parameters = {
-        MakeParameter("sigma0", "N m/rad", "bristle (pre-sliding) stiffness", 37.9, 0.0, 1e8, 0.0),
-        MakeParameter("fc", "N m", "Coulomb friction level (saturation of tau)", 0.0379, 1e-9,
-                      kInf)};
+    if (length_form_) {
+      info_.description =
+          "Dahl friction, presliding-length form: normalised deflection zn with dzn/dt = (qd - "
+          "|qd| zn) / delta, tau = fc zn (sigma0 = fc / delta).";
+      info_.states = {
+          {"zn", "1", "bristle deflection over its sliding value (tau / fc)", -1.0, 1.0}};
+      info_.parameters = {
+          MakeParameter("fc", "N m", "Coulomb friction level (saturation of tau)", 0.0379, 0.0,
+                        kInf, 0.0),
+          MakeParameter("delta", "rad", "presliding length fc / sigma0", 1e-3, 1e-9, kInf)};
+    } else {
+      info_.description =
+          "Dahl friction: bristle deflection z with dz/dt = qd - sigma0 |qd| z / fc, tau = sigma0 "
+          "z (rate-independent hysteresis, pre-sliding stiffness sigma0).";
+      info_.states = {{"z", "rad", "bristle deflection", -1e-3, 1e-3}};
+      info_.parameters = {MakeParameter("sigma0", "N m/rad", "bristle (pre-sliding) stiffness",
+                                        37.9, 0.0, 1e8, 0.0),
+                          MakeParameter("fc", "N m", "Coulomb friction level (saturation of tau)",
+                                        0.0379, 1e-9, kInf)};
+    }
     info_.stiff = true;
     ApplyMotionUnits(kDahlFriction, options, &info_);
   }
@@ -231,11 +248,20 @@ class DahlFriction : public BlockBase<DahlFriction> {
   void Compute(const BlockArgs<Scalar>& a) const {
     using std::abs;
     const Scalar& qd = a.u[0];
+    if (length_form_) {
+      const Scalar& zn = a.x[0];
+      a.xdot[0] = (qd - abs(qd) * zn) / a.p[1];
+      a.y[0] = a.p[0] * zn;
+      return;
+    }
     const Scalar& z = a.x[0];
     const Scalar& sigma0 = a.p[0];
     a.xdot[0] = qd - sigma0 * abs(qd) * z / a.p[1];
     a.y[0] = sigma0 * z;
   }
+
+ private:
+  bool length_form_ = false;
 };
 
 // ---- friction.lugre -----------------------------------------------------------------------------

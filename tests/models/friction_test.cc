@@ -167,9 +167,10 @@ TEST(Friction, AsymmetricIsEvenInTheVelocityAndZeroAtRest) {
   BlockOptions o;
   o.numbers["steepness"] = {200.0};
   const auto asym = Make(kAsymmetricFriction, o);
-  ASSERT_EQ(asym->NumParameters(), 2);
-  const Eigen::Vector2d p(3.0, 0.5);
+  ASSERT_EQ(asym->NumParameters(), 3);
+  const Eigen::Vector3d p(0.0, 3.0, 0.5);
   EXPECT_EQ(Output(*asym, {}, Scalar1(0.0), p), 0.0);
+  EXPECT_EQ(Output(*asym, {}, Scalar1(0.0), Eigen::Vector3d(-1.25, 3.0, 0.5)), -1.25);
   for (const double qd : {0.001, 0.02, 0.7}) {
     const double t = std::tanh(200.0 * qd);
     EXPECT_NEAR(Output(*asym, {}, Scalar1(qd), p), 3.0 * t * t + 0.5 * qd * t, kRoundoff);
@@ -425,6 +426,34 @@ TEST(Friction, LuGreAndDahlAreStiffAtTheirNominalValues) {
 // q = A sin(w t): after the initial transient the loop tau(q) reaches +-fc tanh(sigma0 A / fc) at
 // q = +-A, and crosses q = 0 at +-(fc - (fc + tau_A) exp(-sigma0 A / fc)), the same at every
 // frequency (rate independence).
+// The presliding-length form is the same law: with delta = fc / sigma0 and zn = sigma0 z / fc the
+// torques agree and dzn/dt = (sigma0 / fc) dz/dt; at fc = 0 it outputs 0 whatever zn.
+TEST(Friction, DahlLengthFormIsTheStiffnessFormRescaled) {
+  const auto stiffness = Make(kDahlFriction);
+  BlockOptions o;
+  o.words["form"] = "length";
+  const auto length = Make(kDahlFriction, o);
+  ASSERT_EQ(length->info().parameters[0].name, "fc");
+  ASSERT_EQ(length->info().parameters[1].name, "delta");
+  const double sigma0 = 40.0, fc = 0.03, delta = fc / sigma0;
+  for (const double z : {-6e-4, 0.0, 2e-4, 7.4e-4}) {
+    for (const double qd : {-1.3, -0.02, 0.0, 0.4}) {
+      const Evaluation a = Evaluate(*stiffness, Scalar1(z), Scalar1(qd),
+                                    Parameters(*stiffness, {{"sigma0", sigma0}, {"fc", fc}}));
+      const Evaluation b = Evaluate(*length, Scalar1(sigma0 * z / fc), Scalar1(qd),
+                                    Parameters(*length, {{"fc", fc}, {"delta", delta}}));
+      EXPECT_NEAR(b.y[0], a.y[0], kRoundoff);
+      EXPECT_NEAR(b.xdot[0], sigma0 / fc * a.xdot[0],
+                  kRoundoff * std::max(1.0, std::fabs(b.xdot[0])));
+    }
+  }
+  EXPECT_EQ(Output(*length, Scalar1(0.8), Scalar1(0.3),
+                   Parameters(*length, {{"fc", 0.0}, {"delta", delta}})),
+            0.0);
+  o.words["form"] = "lenght";
+  EXPECT_THROW(Make(kDahlFriction, o), std::invalid_argument);
+}
+
 TEST(Friction, DahlHysteresisLoopMatchesTheClosedForm) {
   constexpr double kSigma0 = 10.0, kFc = 0.02, kAmplitude = 2e-3;  // sigma0 A / fc = 1
   const auto block = Make(kDahlFriction);

@@ -41,10 +41,13 @@
 //                                               (Candidate::option_grids; without data the
 //                                               block's default, 100 s/rad or s/m)
 //   asymmetric_friction  friction.offset        f_asym free (neutral 0): a constant force
-//   asymmetric_friction  friction.asymmetric    fd free (neutral 0): Coulomb levels that differ
-//                                               by direction, zero at rest; fvd (the even
-//                                               viscous term) held at 0; the steepness chosen
-//                                               like the Coulomb candidate's
+//   asymmetric_friction  friction.asymmetric    f0, fd free (neutral 0): a constant part and
+//                                               Coulomb levels that differ by direction (zero
+//                                               at rest); f0 held at 0 when friction.offset is
+//                                               on the axis, else the variant reduces to the
+//                                               constant offset (Candidate::reduces_to); fvd
+//                                               (the even viscous term) held at 0; the
+//                                               steepness chosen like the Coulomb candidate's
 //   stribeck             friction.stribeck      fc, fs free (neutral 0); vs held at nominal
 //                                               for the test, freed to re-fit; fv held at 0
 //                                               when friction.viscous is on the axis (it would
@@ -56,8 +59,15 @@
 //   power_law_viscous    friction.power_viscous fv free (neutral 0); the exponent k held at its
 //                                               nominal 1 for screening (its direction then
 //                                               coincides with viscous friction), freed to re-fit
-//   presliding           friction.dahl          sigma0 free (neutral 0); fc held at nominal;
-//                                               detail "dahl"
+//   presliding           friction.dahl          in its presliding-length form (option form =
+//                                               "length", friction.h): fc free (neutral 0; at
+//                                               fc = 0 the direction is a sign smoothed by the
+//                                               hysteresis, where the stiffness form's sigma0
+//                                               direction is a spring on the position); the
+//                                               length delta held for the test and freed to
+//                                               re-fit, its start chosen among 1, 3, 10 and 30
+//                                               times RMS(v) x dt (a presliding regime lasting
+//                                               that many samples); detail "dahl"
 //   presliding           friction.lugre         with CandidateOptions::lugre_presliding only;
 //                                               detail "lugre". sigma0 screened (neutral 0);
 //                                               sigma1 held at 0 for the test, freed to re-fit;
@@ -66,11 +76,11 @@
 //                                               held at nominal (seed 002's eSEA values), freed
 //                                               to re-fit. At sigma0 = 0 the bristle integrates
 //                                               the position (dz/dt = v), so sigma1 and sigma2
-//                                               act as viscous friction there and the score of
-//                                               sigma0 equals Dahl's exactly: the score test
-//                                               cannot tell the two apart, only the re-fits can
-//                                               (hence opt-in: in the default set it would
-//                                               repeat Dahl's score)
+//                                               act as viscous friction there and the
+//                                               direction of sigma0 is a spring on the
+//                                               position, a poor test of presliding (hence
+//                                               opt-in; Dahl's length form is the screened
+//                                               presliding candidate)
 // each reading v and writing "-F" (or "+F", above), with the block's `motion` option set from v's
 // unit; and, for every external input that no block adds to and whose value changes dv/dt at the
 // test point (a model input that feeds the axis directly), input_delay: Model::InsertOnSignal of
@@ -266,6 +276,8 @@ struct Candidate {
       kSampleTime,  // the sample time of the first estimation split
       kSampleRateSquared,  // 1 / (sample time)^2: a stiffness K = (2 pi f)^2 J_eff of a mode at
                            // f = f_rel / dt has factor (2 pi f_rel)^2 J_eff
+      kStateRmsTimesSampleTime,  // kStateRms times the sample time: a distance travelled in a
+                                 // few samples at the typical velocity (a presliding length)
     };
     std::string parameter;
     Scale scale = Scale::kAbsolute;

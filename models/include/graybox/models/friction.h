@@ -83,13 +83,15 @@
 //   input  qd [rad/s] (-2, 2), not used (read so that every friction block wires the same way)
 //   f_asym [N m]  0 (-inf, inf)  neutral 0   constant offset (roblue joints: -47 .. 14 N m)
 //
-// "friction.asymmetric"  (direction-dependent friction; even in qd)
-//     tau = fd tanh(s qd)^2 + fvd qd tanh(s qd)
+// "friction.asymmetric"  (asymmetric friction: a constant part and an even part in qd)
+//     tau = f0 + fd tanh(s qd)^2 + fvd qd tanh(s qd)
 //   Added to a symmetric Coulomb-viscous term fc sign(qd) + fv qd, the friction moving forward is
-//   (fc + fd) + (fv + fvd) qd and moving backward (fc - fd) + (fv - fvd) |qd|: levels that differ
-//   by direction (a preloaded seal, a belt, a guide loaded on one side). Unlike friction.offset it
-//   vanishes at rest (tanh^2 and qd tanh are 0 at qd = 0), so it holds no force at standstill.
+//   f0 + (fc + fd) + (fv + fvd) qd and moving backward f0 - (fc - fd) - (fv - fvd) |qd|: levels
+//   that differ by direction (a preloaded seal, a belt, a guide loaded on one side). The
+//   direction-dependent parts vanish at rest (tanh^2 and qd tanh are 0 at qd = 0), f0 does not
+//   (it is friction.offset's f_asym).
 //   input  qd [rad/s] (-20, 20);  output tau [N m]
+//   f0  [N m]        0 (-inf, inf)  neutral 0   constant part, also at rest
 //   fd  [N m]        0 (-inf, inf)  neutral 0   half the difference of the forward and backward
 //                                               Coulomb levels
 //   fvd [N m s/rad]  0 (-inf, inf)  neutral 0   half the difference of the viscous coefficients
@@ -129,6 +131,13 @@
 //   Rate-independent hysteresis: in terms of the position q, d tau/dq = sigma0 (1 - tau sign(qd)
 //   / fc); for q oscillating between -A and A the steady loop reaches tau = +-fc tanh(sigma0 A/fc)
 //   at the turning points. stiff = true: |d zdot / dz| = sigma0 |qd| / fc = 2e4 1/s at 20 rad/s.
+//   option "form" = "stiffness" (default, the seed's, above) or "length": the same law in the
+//   presliding length delta = fc / sigma0 and the normalised deflection zn = sigma0 z / fc,
+//       dzn/dt = (qd - |qd| zn) / delta,   tau = fc zn,
+//   state zn [1] (-1, 1);  fc [N m] 0.0379 (0, inf) neutral 0;  delta [rad] 1e-3 (1e-9, inf) no
+//   neutral. Here the level is linear and has a neutral value, so at fc = 0 its direction is a
+//   sign smoothed by the presliding (the hysteresis), where the stiffness form's direction at
+//   sigma0 = 0 is the position itself (a spring): the form the diagnosis screens.
 //
 // "friction.lugre"  (seed 002 eq. 5-2, 5-6, 5-7)
 //     g(qd) = fc + (fs - fc) exp(-|qd/vs|^a),   dz/dt = qd - sigma0 |qd| z / g(qd),

@@ -40,7 +40,7 @@ struct CommandOptions {
   int threads = 0;
   std::vector<std::string> effects;  // candidate effects to propose; empty: the default set
   bool no_reference = false;         // skip the flexible reference
-  double refit_seconds = 0.0;        // budget of each re-fit solve
+  double refit_seconds = 0.0;        // budget of each re-fit (all its solves)
   // bench withheld only.
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters

@@ -177,6 +177,12 @@ BlockOptions QuantityOptions(const models::SignalInfo& info) {
   return o;
 }
 
+// Whether blocks add to (or subtract from) the model input `input` (friction subtracted from a
+// torque command): an actuator effect then goes on the input alone (Model::InsertOnInput).
+bool SummedInput(const models::StateSpaceModel& built, const std::string& input) {
+  return !built.signals[built.SignalIndex(input)].blocks.empty();
+}
+
 std::vector<std::string> ReadersOf(const models::Model& model, const std::string& signal) {
   std::vector<std::string> readers;
   for (const auto& b : model.Blocks()) {
@@ -200,9 +206,14 @@ void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis
                   std::vector<Candidate>* out) {
   const models::StateSpaceModel& built = problem.built;
   const auto blocks = problem.model.Blocks();
-  std::vector<std::pair<std::string, std::vector<std::string>>> commands;  // signal, readers
+  struct Command {
+    std::string signal;
+    std::vector<std::string> readers;
+    bool summed_input;  // a model input blocks add to: the dead zone goes on the input alone
+  };
+  std::vector<Command> commands;
   for (const auto& input : axis.inputs) {
-    commands.push_back({input, ReadersOf(problem.model, input)});
+    commands.push_back({input, ReadersOf(problem.model, input), SummedInput(built, input)});
   }
   const auto& force = built.signals[built.SignalIndex(axis.force)];
   for (const auto& producer : force.blocks) {
@@ -215,17 +226,18 @@ void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis
             role == SignalRole::kVelocity || role == SignalRole::kAcceleration) {
           continue;
         }
-        commands.push_back({in, {producer}});
+        commands.push_back({in, {producer}, false});
       }
     }
   }
-  for (const auto& [signal, readers] : commands) {
+  for (const auto& [signal, readers, summed_input] : commands) {
     if (readers.empty() || !done->insert(signal).second) continue;
     const auto& info = built.signals[built.SignalIndex(signal)].info;
     Candidate c;
     c.effect = "deadzone";
     c.detail = models::kActuatorDeadzone;
-    c.attachment = "command " + signal + " -> " + Join(readers);
+    c.attachment =
+        "command " + signal + (summed_input ? " (input alone)" : "") + " -> " + Join(readers);
     c.instance = FreshInstance(problem.model, "deadzone", taken);
     const auto block = std::shared_ptr<const models::Block>(
         models::BlockRegistry::Global().Create(models::kActuatorDeadzone, QuantityOptions(info)));
@@ -233,17 +245,23 @@ void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis
     const std::string instance = c.instance;
     const std::string sig = signal;
     const std::vector<std::string> rd = readers;
-    c.augmentation = {models::Augmentation::Kind::kForReaders,
+    c.augmentation = {summed_input ? models::Augmentation::Kind::kOnInput
+                                   : models::Augmentation::Kind::kForReaders,
                       c.instance,
                       models::kActuatorDeadzone,
                       QuantityOptions(info),
                       {},
                       {},
                       signal,
-                      readers,
+                      summed_input ? std::vector<std::string>{} : readers,
                       {}};
-    c.apply = [block, instance, sig, rd, held](models::Model* m) {
-      m->InsertForReaders(sig, instance, block, rd);
+    const bool on_input = summed_input;
+    c.apply = [block, instance, sig, rd, held, on_input](models::Model* m) {
+      if (on_input) {
+        m->InsertOnInput(sig, instance, block);
+      } else {
+        m->InsertForReaders(sig, instance, block, rd);
+      }
       for (const auto& q : held) m->Fix(q);
     };
     out->push_back(std::move(c));
@@ -694,12 +712,10 @@ std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
       if (found_rank[k] > found_rank[best]) best = k;
     }
     MechanicalAxis axis = found[best];
-    // Inputs feeding the axis directly: dv/dt changes with the input, and no block adds to it.
+    // Inputs feeding the axis directly: dv/dt changes with the input (blocks may add to it).
     const TestPoint t = MakeTestPoint(built, state);
     const double a0 = Acceleration(built, t, state);
     for (int i = 0; i < built.NumInputs(); ++i) {
-      const auto& s = built.signals[built.SignalIndex(built.inputs[i].name)];
-      if (!s.blocks.empty()) continue;
       TestPoint ti = t;
       const double scale =
           std::max(std::fabs(built.inputs[i].typical_max), std::fabs(built.inputs[i].typical_min));
@@ -849,7 +865,8 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       Candidate c;
       c.effect = "input_delay";
       c.detail = "delay.first_order";
-      c.attachment = "input " + input;
+      const bool summed = SummedInput(problem.built, input);
+      c.attachment = "input " + input + (summed ? " (alone)" : "");
       c.instance = FreshInstance(problem.model, "input_delay", &taken);
       const auto block = std::shared_ptr<const models::Block>(
           models::BlockRegistry::Global().Create("delay.first_order", o));
@@ -867,17 +884,22 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       c.shape_grids.push_back(
           {c.instance + ".T", Candidate::ShapeGrid::Scale::kSampleTime, "", {1.0, 2.5, 6.0, 15.0}});
       const std::string instance = c.instance;
-      c.augmentation = {models::Augmentation::Kind::kOnSignal,
-                        c.instance,
-                        "delay.first_order",
-                        o,
-                        {},
-                        {},
-                        input,
-                        {},
-                        {}};
-      c.apply = [block, instance, input, held](models::Model* m) {
-        m->InsertOnSignal(input, instance, block);
+      c.augmentation = {
+          summed ? models::Augmentation::Kind::kOnInput : models::Augmentation::Kind::kOnSignal,
+          c.instance,
+          "delay.first_order",
+          o,
+          {},
+          {},
+          input,
+          {},
+          {}};
+      c.apply = [block, instance, input, held, summed](models::Model* m) {
+        if (summed) {
+          m->InsertOnInput(input, instance, block);
+        } else {
+          m->InsertOnSignal(input, instance, block);
+        }
         for (const auto& q : held) m->Fix(q);
       };
       out.push_back(std::move(c));

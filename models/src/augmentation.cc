@@ -80,6 +80,8 @@ const char* AugmentationKindName(Augmentation::Kind kind) {
       return "add";
     case Kind::kOnSignal:
       return "on_signal";
+    case Kind::kOnInput:
+      return "on_input";
     case Kind::kOnOutput:
       return "on_output";
     case Kind::kForReaders:
@@ -122,7 +124,7 @@ void Augmentation::Validate() const {
   } else {
     RequireEmpty(*this, "signal", signal.empty(), "'" + signal + "'");
   }
-  if (add || kind == Kind::kOnSignal)
+  if (add || kind == Kind::kOnSignal || kind == Kind::kOnInput)
     RequireEmpty(*this, "readers", readers.empty(), List(readers));
   if (kind != Kind::kForReaders) {
     RequireEmpty(*this, "extra_inputs", extra_inputs.empty(), List(extra_inputs));
@@ -184,6 +186,7 @@ void ApplyAugmentation(Model* model, const Augmentation& a) {
       return;
     }
     case Kind::kOnSignal:
+    case Kind::kOnInput:
     case Kind::kOnOutput:
       if (ins != 1 || outs != 1) {
         throw AugmentationError(a, "type",
@@ -219,6 +222,15 @@ void ApplyAugmentation(Model* model, const Augmentation& a) {
                                   util::DidYouMeanHint(a.signal, channels));
     }
     CheckReaders(a, *model, observed);
+  } else if (a.kind == Kind::kOnInput) {
+    std::vector<std::string> inputs;
+    for (const auto& in : model->Build().inputs) inputs.push_back(in.name);
+    if (!Contains(inputs, a.signal)) {
+      throw AugmentationError(a, "signal",
+                              "expected an input of model '" + name + "' (" + List(inputs) +
+                                  "), got '" + a.signal + "'" +
+                                  util::DidYouMeanHint(a.signal, inputs));
+    }
   } else {
     CheckSignal(a, "signal", "", a.signal, signals, name);
   }
@@ -234,6 +246,9 @@ void ApplyAugmentation(Model* model, const Augmentation& a) {
   switch (a.kind) {
     case Kind::kOnSignal:
       model->InsertOnSignal(a.signal, a.instance, block);
+      break;
+    case Kind::kOnInput:
+      model->InsertOnInput(a.signal, a.instance, block);
       break;
     case Kind::kOnOutput:
       model->InsertOnOutput(a.signal, a.instance, block, a.readers);

@@ -255,6 +255,41 @@ void Model::InsertOnSignal(const std::string& signal, const std::string& instanc
   Augment(instance, std::move(block), {signal}, {replacement});
 }
 
+void Model::InsertOnInput(const std::string& input, const std::string& instance,
+                          std::shared_ptr<const Block> block) {
+  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+    throw std::invalid_argument(
+        "model '" + name_ + "': InsertOnInput('" + input +
+        "'): expected a block with 1 input and 1 output, got " +
+        (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
+               : std::string("null")));
+  }
+  std::vector<std::string> inputs;
+  for (const auto& in : inputs_) inputs.push_back(in.info.name);
+  if (std::find(inputs.begin(), inputs.end(), input) == inputs.end()) {
+    throw std::invalid_argument("model '" + name_ +
+                                "': InsertOnInput: expected a model input, got '" + input + "'" +
+                                Suggest(input, inputs));
+  }
+  CheckNewInstance(instance);
+  const std::string replacement = instance + ".out";
+  for (auto& inst : instances_) {
+    for (auto& in : inst.inputs) {
+      if (in == input) in = replacement;
+    }
+    for (auto& out : inst.outputs) {
+      const auto [target, sign] = Connection(out);
+      if (target == input) out = (sign < 0.0 ? "-" : "") + replacement;
+    }
+  }
+  for (std::size_t j = 0; j < outputs_.size(); ++j) {
+    if (outputs_[j] != input) continue;
+    if (output_names_[j] == outputs_[j]) output_names_[j] = replacement;
+    outputs_[j] = replacement;
+  }
+  Augment(instance, std::move(block), {input}, {replacement});
+}
+
 void Model::InsertOnOutput(const std::string& output, const std::string& instance,
                            std::shared_ptr<const Block> block,
                            const std::vector<std::string>& readers) {

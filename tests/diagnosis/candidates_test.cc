@@ -163,8 +163,21 @@ TEST(Candidates, DeadzoneAttachesToCommandsOnly) {
   // The controller output that the drive reads (the logged nu keeps the command).
   EXPECT_EQ(Names(Enumerate(ClosedLoop(), {"deadzone"})),
             std::vector<std::string>{"deadzone (actuator.deadzone) on command nu -> drive"});
-  // A force input that friction writes to is a sum, not a command: no dead zone.
-  EXPECT_TRUE(Enumerate(ForceSlide(), {"deadzone"}).empty());
+  // A force input that friction writes to: the dead zone acts on the input alone, and the
+  // friction keeps subtracting from the dead zone's output.
+  const std::vector<Candidate> summed = Enumerate(ForceSlide(), {"deadzone", "input_delay"});
+  EXPECT_EQ(Names(summed),
+            (std::vector<std::string>{
+                "input_delay (delay.first_order) on input force (alone)",
+                "deadzone (actuator.deadzone) on command force (input alone) -> load"}));
+  for (const Candidate& c : summed) {
+    EXPECT_EQ(c.augmentation.kind, models::Augmentation::Kind::kOnInput);
+    models::Model m = ForceSlide();
+    c.apply(&m);
+    for (const auto& b : m.Blocks()) {
+      for (const auto& out : b.outputs) EXPECT_NE(out, "-force") << b.instance;
+    }
+  }
 }
 
 TEST(Candidates, RippleNeedsAPositionState) {

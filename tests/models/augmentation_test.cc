@@ -114,6 +114,15 @@ std::vector<Case> Cases() {
     a.extra_inputs = {"load.q"};
     cases.push_back({a, "payload.m", 0.5});
   }
+  {
+    Augmentation a;
+    a.kind = Kind::kOnInput;
+    a.instance = "command_delay";
+    a.type = "delay.first_order";
+    a.options.words["unit"] = "V";
+    a.signal = "u";
+    cases.push_back({a, "command_delay.w", 1.0});
+  }
   return cases;
 }
 
@@ -144,6 +153,50 @@ TEST(Augmentation, EachKindIsNeutralUntilItsParameterMoves) {
   }
 }
 
+// On an input that a block subtracts from (a torque command with friction), InsertOnInput acts on
+// the command alone: with a gain of 3 in series, the load's force is 3 u - fv v, where
+// InsertOnSignal would give 3 (u - fv v).
+TEST(Augmentation, OnInputActsBeforeTheBlocksThatAddToTheInput) {
+  Model m("motor");
+  m.AddInput("tau", "N", "force command", -1.0, 1.0);
+  m.AddBlock("load", "mechanics.mass", {}, {"tau"}, {});
+  BlockOptions prismatic;
+  prismatic.words["motion"] = "prismatic";
+  m.AddBlock("viscous", "friction.viscous", prismatic, {"load.qd"}, {"-tau"});
+  m.AddOutput("load.q");
+  m.SetParameter("load.mass", 1.0);
+  m.SetParameter("viscous.fv", 0.5);
+  Augmentation a;
+  a.kind = Kind::kOnInput;
+  a.instance = "gain";
+  a.type = "signal.gain";
+  a.options.words["input_unit"] = "N";
+  a.options.words["output_unit"] = "N";
+  a.signal = "tau";
+  ApplyAugmentation(&m, a);
+  m.SetParameter("gain.k", 3.0);
+  for (const auto& b : m.Blocks()) {
+    if (b.instance == "viscous") {
+      EXPECT_EQ(b.outputs, std::vector<std::string>{"-gain.out"});
+    }
+    if (b.instance == "load") {
+      EXPECT_EQ(b.inputs, std::vector<std::string>{"gain.out"});
+    }
+    if (b.instance == "gain") {
+      EXPECT_EQ(b.inputs, std::vector<std::string>{"tau"});
+    }
+  }
+  const StateSpaceModel ss = m.Build();
+  const Eigen::VectorXd x = Eigen::Vector2d(0.1, 0.4);  // q, qd
+  const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, 2.0);
+  const double qdd = ss.dynamics({x, u, ss.ParameterValues()})[0][ss.StateIndex("load.qd")];
+  EXPECT_NEAR(qdd, 3.0 * 2.0 - 0.5 * 0.4, 1e-12);
+  Augmentation not_an_input = a;
+  not_an_input.instance = "gain_2";
+  not_an_input.signal = "load.q";
+  EXPECT_THROW(ApplyAugmentation(&m, not_an_input), AugmentationError);
+}
+
 TEST(Augmentation, ConnectsTheBlockAsTheModelOperationDoes) {
   for (const Case& c : Cases()) {
     SCOPED_TRACE(c.augmentation.instance);
@@ -157,6 +210,11 @@ TEST(Augmentation, ConnectsTheBlockAsTheModelOperationDoes) {
         break;
       case Kind::kOnSignal:
         direct.InsertOnSignal(a.signal, a.instance, a.type, a.options);
+        break;
+      case Kind::kOnInput:
+        direct.InsertOnInput(
+            a.signal, a.instance,
+            std::shared_ptr<const Block>(BlockRegistry::Global().Create(a.type, a.options)));
         break;
       case Kind::kOnOutput:
         direct.InsertOnOutput(a.signal, a.instance, a.type, a.options, a.readers);

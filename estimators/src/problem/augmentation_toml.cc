@@ -121,6 +121,9 @@ std::string AugmentationToml(const models::Augmentation& a) {
     case Kind::kOnSignal:
       s += "on_signal = " + Quote(a.signal) + "\n";
       break;
+    case Kind::kOnInput:
+      s += "on_input = " + Quote(a.signal) + "\n";
+      break;
     case Kind::kOnOutput:
       s += "on_output = " + Quote(a.signal) + "\n";
       if (!a.readers.empty()) s += "readers = " + Array(a.readers) + "\n";

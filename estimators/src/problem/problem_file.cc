@@ -212,12 +212,12 @@ std::shared_ptr<const models::Block> CreateBlock(const Section& b, const std::st
 }
 
 // One [[model.augment]] table, applied to problem->model (problem-format.md, "Augmentations").
-// The placement is exactly one of inputs + outputs (add), on_signal, on_output (with optional
-// readers) and for_readers = {signal, readers, extra_inputs}.
+// The placement is exactly one of inputs + outputs (add), on_signal, on_input, on_output (with
+// optional readers) and for_readers = {signal, readers, extra_inputs}.
 void ParseAugmentation(const Section& t, Problem* problem) {
   using Kind = models::Augmentation::Kind;
-  t.Allow({"instance", "type", "options", "inputs", "outputs", "on_signal", "on_output", "readers",
-           "for_readers"});
+  t.Allow({"instance", "type", "options", "inputs", "outputs", "on_signal", "on_input", "on_output",
+           "readers", "for_readers"});
   models::Augmentation a;
   a.instance = t.RequiredString("instance");
   a.type = t.RequiredString("type");
@@ -225,12 +225,12 @@ void ParseAugmentation(const Section& t, Problem* problem) {
   if (auto o = t.Sub("options")) a.options = ParseBlockOptions(*o);
   std::vector<std::string> given;
   if (t.Has("inputs") || t.Has("outputs")) given.push_back(t.Has("inputs") ? "inputs" : "outputs");
-  for (const char* key : {"on_signal", "on_output", "for_readers"}) {
+  for (const char* key : {"on_signal", "on_input", "on_output", "for_readers"}) {
     if (t.Has(key)) given.push_back(key);
   }
   const std::string expected =
-      "expected exactly one of 'inputs' and 'outputs' (add the block), 'on_signal', 'on_output' "
-      "or 'for_readers'";
+      "expected exactly one of 'inputs' and 'outputs' (add the block), 'on_signal', 'on_input', "
+      "'on_output' or 'for_readers'";
   if (given.empty()) t.Fail("", label + "missing placement: " + expected + ", got none of them");
   if (given.size() > 1) {
     t.Fail(given[1], label + expected + ", got both '" + given[0] + "' and '" + given[1] + "'");
@@ -250,6 +250,9 @@ void ParseAugmentation(const Section& t, Problem* problem) {
   } else if (given[0] == "on_signal") {
     a.kind = Kind::kOnSignal;
     a.signal = t.RequiredString("on_signal");
+  } else if (given[0] == "on_input") {
+    a.kind = Kind::kOnInput;
+    a.signal = t.RequiredString("on_input");
   } else if (given[0] == "on_output") {
     a.kind = Kind::kOnOutput;
     a.signal = t.RequiredString("on_output");

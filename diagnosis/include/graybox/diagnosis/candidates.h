@@ -87,7 +87,8 @@
 // "delay.first_order" (w free, neutral 0; T held at its nominal), with the input's unit and
 // typical range as options. States a candidate adds (Dahl's z, the delay's x) start at 0 in every
 // split (screening.h). An input that blocks also write to (a force input friction subtracts
-// from) is not delayed: a delay there would delay the friction too.
+// from) is delayed alone, before their contributions (Model::InsertOnInput; attachment
+// "input <u> (alone)"), so the friction stays undelayed.
 //
 // Parameters without a neutral value (shapes: a steepness, a Stribeck velocity, a time constant)
 // cannot be tested at the neutral point: Candidate::screened lists what the score test frees,
@@ -110,8 +111,9 @@
 //                  closed loop reads the controller output), except states and signals of role
 //                  position, velocity or acceleration, read by that block only. The model's outputs
 //                  keep the command (a logged controller output is the command before the dead
-//                  zone). A signal gets one dead zone. A force input that friction writes to is a
-//                  sum, not a command: no dead zone there (as for input_delay). Detail
+//                  zone). A signal gets one dead zone. On a force input that friction writes to
+//                  the dead zone acts on the input alone (Model::InsertOnInput; attachment
+//                  "command <u> (input alone) -> <readers>"), as for input_delay. Detail
 //                  "actuator.deadzone", attachment "command <signal> -> <readers>".
 //   ripple         friction.ripple    a1, b1 free (neutral 0; amplitude and phase, both linear),
 //                                     one harmonic, period P an option (held in the re-fit too).

@@ -14,6 +14,12 @@
 //                reads "<instance>.out" instead. A first-order delay of the force command u:
 //                  {kOnSignal, "input_delay", "delay.first_order", {words: unit = N},
 //                   signal = "u"}
+//   kOnInput     Model::InsertOnInput(signal, instance, ...): a one-input one-output block on the
+//                model input `signal` alone, before the blocks that add to that signal (friction
+//                subtracted from a motor torque input keeps acting undelayed). A first-order delay
+//                of the torque command tau_m of a motor with friction:
+//                  {kOnInput, "input_delay", "delay.first_order", {words: unit = N m},
+//                   signal = "tau_m"}
 //   kOnOutput    Model::InsertOnOutput(signal, instance, ..., readers): a one-input one-output
 //                block on the measured channel named `signal` only (a sensor error); the channel
 //                keeps its name, the physics keeps reading the true signal, and the block
@@ -55,7 +61,7 @@
 namespace graybox::models {
 
 struct Augmentation {
-  enum class Kind { kAdd, kOnSignal, kOnOutput, kForReaders };
+  enum class Kind { kAdd, kOnSignal, kOnInput, kOnOutput, kForReaders };
   Kind kind = Kind::kAdd;
   /// The new block instance (no '.'; not an instance the model already has).
   std::string instance;
@@ -68,8 +74,8 @@ struct Augmentation {
   /// augmentation is applied, or states of the new block.
   std::vector<std::string> inputs;
   std::vector<std::string> outputs;
-  /// kOnSignal and kForReaders: the signal the block is put on; kOnOutput: the output channel's
-  /// name (StateSpaceModel::outputs[j].name).
+  /// kOnSignal and kForReaders: the signal the block is put on; kOnInput: the model input;
+  /// kOnOutput: the output channel's name (StateSpaceModel::outputs[j].name).
   std::string signal;
   /// kOnOutput (optional) and kForReaders (at least one): block instances that read `signal` and
   /// read the block's output "<instance>.out" instead.
@@ -83,7 +89,8 @@ struct Augmentation {
   void Validate() const;
 };
 
-/// "add", "on_signal", "on_output", "for_readers" (the problem-file keys of the kinds).
+/// "add", "on_signal", "on_input", "on_output", "for_readers" (the problem-file keys of the
+/// kinds).
 const char* AugmentationKindName(Augmentation::Kind kind);
 
 /// Field-wise equality (options compared value by value).

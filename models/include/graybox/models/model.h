@@ -34,12 +34,13 @@
 // parameters move (blocks whose effect vanishes at neutral: friction terms, residual networks with
 // zero output weights). InsertOnSignal() puts a single-input single-output block in series on a
 // signal (an input delay on a motor torque, a dead zone): every reader of the signal then reads the
-// block's output instead. InsertForReaders() does the same for chosen block instances only (a
-// dead zone in the drive that reads a controller output the data also log), and InsertOnOutput()
-// for a measured channel only (a sensor offset: the physics keeps reading the true signal, the
-// channel keeps its name). These are what the sim-to-real gap diagnosis does for every candidate
-// effect; augmentation.h states each of them as data (Augmentation, ApplyAugmentation), which a
-// problem file writes as a [[model.augment]] table.
+// block's output instead; InsertOnInput() on a model input before the blocks that add to it.
+// InsertForReaders() does the same for chosen block instances only (a dead zone in the drive that
+// reads a controller output the data also log), and InsertOnOutput() for a measured channel only (a
+// sensor offset: the physics keeps reading the true signal, the channel keeps its name). These are
+// what the sim-to-real gap diagnosis does for every candidate effect; augmentation.h states each of
+// them as data (Augmentation, ApplyAugmentation), which a problem file writes as a
+// [[model.augment]] table.
 #pragma once
 
 #include <memory>
@@ -190,6 +191,18 @@ class Model {
                       std::shared_ptr<const Block> block);
   void InsertOnSignal(const std::string& signal, const std::string& instance,
                       const std::string& type, const BlockOptions& options = {});
+
+  /// Puts a one-input one-output block in series on the model input `input` alone, before the
+  /// blocks that add to the same signal (a transport delay of a motor torque command that friction
+  /// blocks subtract from): the block reads the raw input, its output is the new signal
+  /// "<instance>.out", and every block output that added to (or subtracted from) `input` adds to
+  /// "<instance>.out" instead, so "<instance>.out" = block(input) + those contributions; every
+  /// block input and model output that read `input` reads "<instance>.out". On an input nothing
+  /// adds to it is InsertOnSignal. Parameters start at their neutral values. Throws
+  /// std::invalid_argument, leaving the model unchanged, for a name that is not a model input, a
+  /// block that is not 1-in 1-out, or an instance name AddBlock rejects.
+  void InsertOnInput(const std::string& input, const std::string& instance,
+                     std::shared_ptr<const Block> block);
 
   /// Puts a one-input one-output block in series on the measured channel `output` only (a sensor
   /// error): the block reads the channel's signal and the channel then reports "<instance>.out"

@@ -594,6 +594,16 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
     }
     // The profile over each shape grid: stage A at every other grid value (a fixed value
     // changes, so each solve is warm-started from the best so far), the lowest cost kept.
+    // A grid value's solve replaces the best so far when it converged and validates better (or
+    // the best so far did not converge, or does not simulate on the validation splits).
+    auto validates_better = [&role](const est::FitResult& trial, const est::FitResult& best) {
+      if (!trial.IsSolutionUsable() || !trial.solver_result.success) return false;
+      if (!best.solver_result.success) return true;
+      const double t = ValidationNrmse(trial.evaluations, role);
+      const double b = ValidationNrmse(best.evaluations, role);
+      if (!std::isfinite(t)) return false;
+      return !std::isfinite(b) || t < b;
+    };
     for (const auto& [shape, values] : screened.shape_grid_values) {
       if (!a.IsSolutionUsable()) break;
       double best_value = a.Parameter(shape).value;
@@ -608,7 +618,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         ++tried;
         session.SetParameterValue(shape, v);
         est::FitResult trial = session.Solve(&a);
-        if (trial.IsSolutionUsable() && trial.solver_result.cost < a.solver_result.cost) {
+        if (validates_better(trial, a)) {
           a = std::move(trial);
           best_value = v;
         }

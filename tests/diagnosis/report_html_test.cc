@@ -54,8 +54,9 @@ DiagnosisReport RunDiagnosis() {
       testing::SlideSplit(truth, "estimation", est::SplitRole::kEstimation, 0.0, &rng),
       testing::SlideSplit(truth, "validation", est::SplitRole::kValidation, 0.7, &rng)};
   DiagnoseOptions o;
-  o.screening.candidates.effects = {"coulomb", "asymmetric_friction", "viscous", "input_delay"};
-  o.screening.refit_top = 2;
+  // The friction candidates, each re-fitted (coulomb and the two asymmetric_friction variants).
+  o.screening.candidates.effects = {"coulomb", "asymmetric_friction", "viscous"};
+  o.screening.refit_top = 3;
   o.max_effects = 2;
   return Diagnose(testing::NominalSlideProblem(), splits, o);
 }

@@ -173,6 +173,11 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   std::vector<est::SplitData> current_splits = splits;
   est::FitResult current_fit = d.nominal;
   ScreeningOptions screening = options.screening;
+  // One automatic budget for every round, from the problem's own nominal fit (a later round's
+  // starting fit is an accepted re-fit, whose solve may itself have used a whole budget).
+  if (screening.refit_max_seconds == 0.0) {
+    screening.refit_max_seconds = AutomaticRefitBudget(d.nominal);
+  }
   for (int round = 1;; ++round) {
     screening.progress = [&, round](const std::string& line) {
       progress("round " + std::to_string(round) + ": " + line);

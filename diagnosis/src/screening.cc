@@ -563,6 +563,20 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       return true;
     };
     bool spent = false;
+    // Wall time of the re-fit's solves and of the solver inside them (FitResult::seconds "solve"),
+    // reported in RefitResult::stages: the difference is formulation, covariance and evaluation.
+    double solve_wall = 0.0, solver_seconds = 0.0;
+    int solves = 0;
+    auto timed_solve = [&](const est::FitResult* start) {
+      const auto t0 = std::chrono::steady_clock::now();
+      est::FitResult r = session.Solve(start);
+      solve_wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      for (const auto& [what, seconds] : r.seconds) {
+        if (what == "solve") solver_seconds += seconds;
+      }
+      ++solves;
+      return r;
+    };
     std::vector<double> neutral;
     neutral.assign(c.screened.size(), 0.0);
     for (std::size_t i = 0; i < c.screened.size(); ++i) {
@@ -583,12 +597,12 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       }
     }
     budget_left();
-    est::FitResult a = session.Solve();
+    est::FitResult a = timed_solve(nullptr);
     if (started_one_step && !a.IsSolutionUsable() && budget_left()) {
       for (std::size_t i = 0; i < c.screened.size(); ++i) {
         session.SetParameterValue(c.screened[i], neutral[i]);
       }
-      a = session.Solve();
+      a = timed_solve(nullptr);
       out.stages.push_back("from the one-step estimate: " + a.solver_result.status +
                            "; restarted from the neutral values");
     }
@@ -617,7 +631,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         }
         ++tried;
         session.SetParameterValue(shape, v);
-        est::FitResult trial = session.Solve(&a);
+        est::FitResult trial = timed_solve(&a);
         if (validates_better(trial, a)) {
           a = std::move(trial);
           best_value = v;
@@ -644,7 +658,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
           "re-fit's budget was spent");
     } else if (!shapes.empty() && out.fit.IsSolutionUsable()) {
       for (const auto& q : shapes) session.FreeParameter(q);
-      est::FitResult b = session.Solve(&out.fit);
+      est::FitResult b = timed_solve(&out.fit);
       std::string held;
       if (!b.IsSolutionUsable() || !b.solver_result.success) {
         held = "the re-fit with them free stopped with " + b.solver_result.status;
@@ -679,6 +693,15 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       } else {
         out.stages.push_back("shape parameters held (at the nominal or profiled values): " + held);
       }
+    }
+    {
+      char line[200];
+      std::snprintf(
+          line, sizeof(line),
+          "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far", solves,
+          solve_wall, solver_seconds,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+      out.stages.push_back(line);
     }
     for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
     for (const auto& q : c.refit) {
@@ -866,6 +889,14 @@ void ScreeningOptions::Validate() const {
   candidates.Validate();
 }
 
+double AutomaticRefitBudget(const est::FitResult& nominal) {
+  double nominal_solve = 0.0;
+  for (const auto& [what, seconds] : nominal.seconds) {
+    if (what == "solve") nominal_solve = seconds;
+  }
+  return std::max(kAutoBudgetFactor * nominal_solve, kAutoBudgetFloor);
+}
+
 Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
                          const est::FitResult& nominal, const ScreeningOptions& options) {
   options.Validate();
@@ -907,15 +938,9 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   for (const CandidateScore& s : d.screened) {
     if (s.candidate.structural && s.failure.empty()) to_refit.push_back(&s);
   }
-  // The budget of each re-fit solve: as given, else 20 times the nominal solve, at least 10 s.
-  double budget = options.refit_max_seconds;
-  if (budget == 0.0) {
-    double nominal_solve = 0.0;
-    for (const auto& [what, seconds] : nominal.seconds) {
-      if (what == "solve") nominal_solve = seconds;
-    }
-    budget = std::max(kAutoBudgetFactor * nominal_solve, kAutoBudgetFloor);
-  }
+  // The budget of each re-fit: as given, else automatic from this nominal fit.
+  const double budget =
+      options.refit_max_seconds > 0.0 ? options.refit_max_seconds : AutomaticRefitBudget(nominal);
   d.refits.resize(to_refit.size());
   ParallelFor(static_cast<int>(to_refit.size()), options.num_threads, [&](int i) {
     report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +

@@ -49,15 +49,13 @@ class Heartbeat {
     cv_.notify_all();
     if (thread_.joinable()) thread_.join();
   }
-  // Keeps the latest iteration for the progress line; false (stop) once the solve has iterated
-  // for more than `max_seconds` (> 0) since its first iteration (time waiting for the Ipopt lock
-  // does not count).
+  // Keeps the latest iteration for the progress line; false (stop) once the solve has run for
+  // more than `max_seconds` (> 0) since it started (checked at each iteration).
   bool Record(const IterationSummary& s, double max_seconds) {
     std::lock_guard<std::mutex> lock(mutex_);
     latest_ = s;
-    if (!has_latest_) first_iteration_ = Timer();
     has_latest_ = true;
-    return !(max_seconds > 0.0 && first_iteration_.Seconds() > max_seconds);
+    return !(max_seconds > 0.0 && timer_.Seconds() > max_seconds);
   }
 
  private:
@@ -82,7 +80,6 @@ class Heartbeat {
   double interval_;
   std::string solver_;
   Timer timer_;
-  Timer first_iteration_;
   std::mutex mutex_;
   std::condition_variable cv_;
   bool done_ = false;

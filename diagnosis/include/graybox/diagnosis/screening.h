@@ -169,7 +169,8 @@ struct ScreeningOptions {
   /// Budget of each re-fit [s], wall time over all its solves (stage A, the profile over the
   /// shape grids, stage B): each solve may iterate for what is left (FitOptions::
   /// max_solve_seconds, checked at every iteration); the profile and stage B are skipped once it
-  /// is spent (said in RefitResult::stages). 0: automatic, 20 times the nominal fit's solve time
+  /// is spent (said in RefitResult::stages). 0: automatic (AutomaticRefitBudget; Diagnose takes it
+  /// once from the problem's nominal fit for every round), 20 times the nominal fit's solve time
   /// and at least 10 s (a re-fit is a warm-started fit of a model one block larger). A re-fit
   /// whose stage A is stopped by it is reported as not converged, never ranked: an unattended
   /// diagnosis must not hang on one candidate (a ripple re-fit on EMPS took 150 s where the
@@ -253,6 +254,10 @@ struct Diagnosis {
 /// Screens every candidate of EnumerateCandidates(problem, options.candidates) against the
 /// nominal fit `nominal` (estimators::Fit(problem, splits)) and re-fits the best. See the file
 /// comment.
+/// The automatic re-fit budget of ScreeningOptions::refit_max_seconds = 0: 20 times the solve
+/// time of `nominal` (FitResult::seconds "solve"), at least 10 s.
+double AutomaticRefitBudget(const estimators::FitResult& nominal);
+
 Diagnosis ScreenAndRefit(const estimators::Problem& problem,
                          const std::vector<estimators::SplitData>& splits,
                          const estimators::FitResult& nominal,

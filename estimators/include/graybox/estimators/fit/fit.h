@@ -104,9 +104,11 @@ struct FitOptions {
   std::function<void(const std::string&)> progress;
   /// Seconds between two solver progress lines.
   double progress_interval_seconds = 15.0;
-  /// Stop a solve that has iterated longer than this [s] since its first iteration (0: no
-  /// limit); the result then has status kUserInterrupt (usable, not converged). A budget for
-  /// unattended fits such as the diagnosis' re-fits.
+  /// Stop a solve that has run longer than this [s] since it started, checked at each iteration
+  /// (0: no limit; the time before the first iteration, Ipopt's initialisation and the first
+  /// factorisation, counts; one long iteration is not interrupted); the result then has status
+  /// kUserInterrupt (usable, not converged). A budget for unattended fits such as the diagnosis'
+  /// re-fits.
   double max_solve_seconds = 0.0;
   /// Compute the covariance after solving.
   bool compute_covariance = true;

@@ -272,22 +272,16 @@ void Model::InsertOnInput(const std::string& input, const std::string& instance,
                                 Suggest(input, inputs));
   }
   CheckNewInstance(instance);
+  // The blocks that add to the input add to the block's output instead; InsertOnSignal then
+  // redirects the readers and adds the block on the input, now the raw input alone.
   const std::string replacement = instance + ".out";
   for (auto& inst : instances_) {
-    for (auto& in : inst.inputs) {
-      if (in == input) in = replacement;
-    }
     for (auto& out : inst.outputs) {
       const auto [target, sign] = Connection(out);
       if (target == input) out = (sign < 0.0 ? "-" : "") + replacement;
     }
   }
-  for (std::size_t j = 0; j < outputs_.size(); ++j) {
-    if (outputs_[j] != input) continue;
-    if (output_names_[j] == outputs_[j]) output_names_[j] = replacement;
-    outputs_[j] = replacement;
-  }
-  Augment(instance, std::move(block), {input}, {replacement});
+  InsertOnSignal(input, instance, std::move(block));
 }
 
 void Model::InsertOnOutput(const std::string& output, const std::string& instance,

@@ -56,8 +56,7 @@ int RunBenchWithheld(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.
 int RunCheck(const CommandOptions& options);
 
-/// "v0.1.0-12-gabcdef-dirty" from `git describe --always --dirty` at configure time, or
-/// "unknown".
+/// "v0.1.0-12-gabcdef-dirty" from `git describe --always --dirty` at build time, or "unknown".
 const char* GitRevision();
 const char* Version();
 

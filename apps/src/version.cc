@@ -1,6 +1,8 @@
-// The version and the git revision recorded in every result.json (GRAYBOX_GIT_REVISION is set at
-// configure time by apps/CMakeLists.txt, on this file only, so a new revision recompiles one TU).
+// The version and the git revision recorded in every result.json (GRAYBOX_GIT_REVISION comes from
+// the header the graybox_revision target regenerates at every build, apps/CMakeLists.txt; only
+// this file includes it, so a new revision recompiles one TU).
 #include "app.h"
+#include "graybox_revision.h"
 
 #ifndef GRAYBOX_GIT_REVISION
 #define GRAYBOX_GIT_REVISION "unknown"

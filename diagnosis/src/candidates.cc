@@ -56,10 +56,13 @@ BlockOptions Motion(bool prismatic) {
   return o;
 }
 
-// Whether a candidate block's smoothing steepness is an option chosen from a grid by score (the
-// Coulomb level and the direction-dependent level: sign-like shapes).
+// Whether a candidate block's smoothing steepness is an option set from the axis' velocity (the
+// blocks whose shape holds a smoothed sign: the Coulomb level and the direction-dependent level,
+// chosen from a grid by score, and the Stribeck excess, whose hump near standstill a fixed default
+// steepness flattens when the axis' velocities are small against 1 / steepness).
 bool HasSteepnessGrid(const std::string& type) {
-  return type == models::kCoulombFriction || type == models::kAsymmetricFriction;
+  return type == models::kCoulombFriction || type == models::kAsymmetricFriction ||
+         type == models::kStribeckFriction;
 }
 
 // The options a candidate of `type` is created with: the axis' motion, and for the sign-like
@@ -821,11 +824,13 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       const std::string instance = c.instance, velocity = axis.velocity,
                         connection = axis.connection;
       if (HasSteepnessGrid(kind.type)) {
-        c.option_grids.push_back({"steepness",
-                                  Candidate::ShapeGrid::Scale::kStateRms,
-                                  axis.velocity,
-                                  {5.0, 30.0, 150.0},
-                                  true});
+        // The Stribeck excess takes the steepest sign of the grid alone: its hump lies at
+        // velocities well below the RMS (the vs grid starts at 0.03 RMS, where 150 / RMS still
+        // gives s vs = 4.5), and a softer sign flattens it into a Coulomb-like ramp.
+        const bool stribeck = kind.type == std::string(models::kStribeckFriction);
+        c.option_grids.push_back(
+            {"steepness", Candidate::ShapeGrid::Scale::kStateRms, axis.velocity,
+             stribeck ? std::vector<double>{150.0} : std::vector<double>{5.0, 30.0, 150.0}, true});
         const bool prismatic = axis.prismatic;
         const std::string type = kind.type;
         c.apply_with_option = [type, prismatic, instance, velocity, connection, held](

@@ -391,49 +391,71 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
       return out;
     }
     if (out.dof == 0) throw std::runtime_error("no parameter with a neutral value to test");
-    // Option grids, then shape grids: the score at each value, the best kept (its candidate
-    // re-fitted from there).
-    for (const Candidate::OptionGrid& grid : candidate.option_grids) {
-      if (!candidate.apply_with_option) break;
+    // The option grid's values (or the candidate as it is), each with the shape grids chosen at
+    // it, jointly: the best scoring pair is kept (its candidate re-fitted from there). Jointly,
+    // since one shape value can favour another option (a Stribeck hump at a small velocity needs
+    // a steep sign) than the block's nominal shape would.
+    std::vector<CandidateScore> starts;
+    if (!candidate.option_grids.empty() && candidate.apply_with_option) {
+      if (candidate.option_grids.size() > 1) {
+        throw std::invalid_argument("Candidate " + candidate.Name() +
+                                    ": expected at most one option grid, got " +
+                                    std::to_string(candidate.option_grids.size()));
+      }
+      const Candidate::OptionGrid& grid = candidate.option_grids.front();
       Candidate::ShapeGrid g;
       g.scale = grid.scale;
       g.state = grid.state;
       const double scale = ShapeScale(problem, splits, nominal, g);
-      if (!(std::isfinite(scale) && scale > 0.0)) continue;
-      std::vector<double> values;
-      std::vector<Candidate> variants;
-      for (const double factor : grid.factors) {
-        const double v = grid.inverse ? factor / scale : factor * scale;
-        Candidate c = out.candidate;
-        const auto apply = candidate.apply_with_option;
-        c.apply = [apply, v](models::Model* m) { apply(m, v); };
-        values.push_back(v);
-        variants.push_back(std::move(c));
-      }
-      const int best = BestScoring(problem, splits, nominal, variants, &out);
-      if (best >= 0) {
-        out.shape_start.emplace_back(candidate.instance + " option " + grid.option, values[best]);
+      if (std::isfinite(scale) && scale > 0.0) {
+        for (const double factor : grid.factors) {
+          const double v = grid.inverse ? factor / scale : factor * scale;
+          CandidateScore start = out;
+          const auto apply = candidate.apply_with_option;
+          start.candidate.apply = [apply, v](models::Model* m) { apply(m, v); };
+          start.shape_start.emplace_back(candidate.instance + " option " + grid.option, v);
+          starts.push_back(std::move(start));
+        }
       }
     }
-    for (const Candidate::ShapeGrid& grid : candidate.shape_grids) {
-      const double scale = ShapeScale(problem, splits, nominal, grid);
-      if (!(std::isfinite(scale) && scale > 0.0)) continue;
-      const est::Problem augmented = AugmentedProblem(problem, nominal, out.candidate, false);
-      const models::ModelParameter& p =
-          augmented.built.parameters[augmented.built.ParameterIndex(grid.parameter)];
-      std::vector<double> values;
-      std::vector<Candidate> variants;
-      for (const double factor : grid.factors) {
-        const double v = factor * scale;
-        if (!(v >= p.lower && v <= p.upper)) continue;
-        values.push_back(v);
-        variants.push_back(WithShape(out.candidate, grid.parameter, v));
+    if (starts.empty()) starts.push_back(out);
+    int best_start = -1;
+    for (std::size_t k = 0; k < starts.size(); ++k) {
+      CandidateScore& start = starts[k];
+      bool scored = false;
+      for (const Candidate::ShapeGrid& grid : candidate.shape_grids) {
+        const double scale = ShapeScale(problem, splits, nominal, grid);
+        if (!(std::isfinite(scale) && scale > 0.0)) continue;
+        const est::Problem augmented = AugmentedProblem(problem, nominal, start.candidate, false);
+        const models::ModelParameter& p =
+            augmented.built.parameters[augmented.built.ParameterIndex(grid.parameter)];
+        std::vector<double> values;
+        std::vector<Candidate> variants;
+        for (const double factor : grid.factors) {
+          const double v = factor * scale;
+          if (!(v >= p.lower && v <= p.upper)) continue;
+          values.push_back(v);
+          variants.push_back(WithShape(start.candidate, grid.parameter, v));
+        }
+        const int best = BestScoring(problem, splits, nominal, variants, &start);
+        if (best >= 0) {
+          scored = true;
+          start.shape_start.emplace_back(grid.parameter, values[best]);
+          start.shape_grid_values.emplace_back(grid.parameter, values);
+        }
       }
-      const int best = BestScoring(problem, splits, nominal, variants, &out);
-      if (best >= 0) {
-        out.shape_start.emplace_back(grid.parameter, values[best]);
-        out.shape_grid_values.emplace_back(grid.parameter, values);
+      if (starts.size() > 1 && !scored) {
+        const est::Problem augmented = AugmentedProblem(problem, nominal, start.candidate, false);
+        scored = ScoreBySimulation(augmented, splits, nominal, start.candidate, &start);
       }
+      if (scored && (best_start < 0 || start.score > starts[best_start].score)) {
+        best_start = static_cast<int>(k);
+      }
+    }
+    if (best_start >= 0) {
+      out = std::move(starts[best_start]);
+    } else if (starts.size() == 1) {
+      out = std::move(starts.front());
     }
     const est::Problem aug = AugmentedProblem(problem, nominal, out.candidate, false);
     if (ScoreBySimulation(aug, splits, nominal, out.candidate, &out)) {

@@ -1,7 +1,9 @@
 // ScreenAndRefit on a synthetic sliding mass whose truth has a friction the nominal model lacks,
 // of a shape no candidate block has (a Stribeck curve with exponent 1 and a steeper smooth sign
 // than the candidates' default), and on a truth equal to the nominal model; EnumerateCandidates'
-// axes and attachments from metadata; the chi-square survival function against tables.
+// axes and attachments from metadata; the chi-square survival function against tables; a Stribeck
+// excess beside a Coulomb level on a slow axis, whose hump lies below 1 / the blocks' default
+// steepness.
 #include "graybox/diagnosis/screening.h"
 
 #include <algorithm>
@@ -18,6 +20,7 @@
 #include "graybox/diagnosis/candidates.h"
 #include "graybox/estimators/fit/fit.h"
 #include "graybox/models/model.h"
+#include "slide_truth.h"
 
 namespace graybox::diagnosis {
 namespace {
@@ -237,6 +240,71 @@ TEST(ScreenAndRefit, NoWithheldEffectGivesNoSignificantCandidate) {
     EXPECT_TRUE(s.failure.empty()) << s.candidate.Name() << ": " << s.failure;
     EXPECT_GE(s.p_value, kFalseAlarmLevel) << s.candidate.Name() << " LM " << s.score;
   }
+}
+
+// A slow slide (velocities of a few cm/s) with a Coulomb level in the nominal model and, in the
+// truth, a Stribeck excess of exponent 1 at vs = 1 cm/s with a hard sign tanh(v / 0.1 mm/s). The
+// blocks' default steepness (100 s/m) would flatten a hump this narrow into a ramp that a power
+// law fits about as well; the Stribeck candidate's steepness scales with the axis velocity.
+TEST(ScreenAndRefit, StribeckExcessBesideACoulombLevelOnASlowAxis) {
+  constexpr double kTruthCoulomb = 1.0;       // [N]
+  constexpr double kTruthExcess = 0.6;        // [N]
+  constexpr double kTruthVs = 0.01;           // [m/s]
+  constexpr double kTruthSignWidth = 1.0e-4;  // [m/s]
+  testing::SlideTruth truth;
+  truth.viscous = 30.0;
+  truth.samples = 600;
+  truth.substeps = 200;  // the hard sign: slope 1.6e4 N s/m at rest
+  truth.noise_std = 1.0e-3;
+  truth.friction = [&](double v) {
+    return (kTruthCoulomb + kTruthExcess * std::exp(-std::fabs(v) / kTruthVs)) *
+           std::tanh(v / kTruthSignWidth);
+  };
+  std::mt19937 rng(testing::TestSeed(20261127u));
+  const std::vector<est::SplitData> splits = {
+      testing::SlideSplit(truth, "estimation", est::SplitRole::kEstimation, 0.0, &rng),
+      testing::SlideSplit(truth, "validation", est::SplitRole::kValidation, 0.7, &rng)};
+
+  models::Model m("slide");
+  m.AddInput("force", "N", "drive force", -5.0, 5.0);
+  models::BlockOptions prismatic;
+  prismatic.words["motion"] = "prismatic";
+  models::BlockOptions coulomb = prismatic;
+  coulomb.numbers["steepness"] = {1.0e3};
+  m.AddBlock("load", "mechanics.mass", prismatic, {"force"}, {});
+  m.AddBlock("viscous", "friction.viscous", prismatic, {"load.qd"}, {"-force"});
+  m.AddBlock("coulomb", "friction.coulomb", coulomb, {"load.qd"}, {"-force"});
+  m.SetParameter("load.mass", 1.5);
+  m.SetParameter("viscous.fv", 20.0);
+  m.SetParameter("coulomb.fc", 0.8);
+  m.AddOutput("load.qd");
+  est::EstimationSpec spec;
+  spec.step.substeps = 10;  // steep signs: RK4 stays inside its stability region
+  const est::Problem problem = est::MakeProblem("slide", m, spec);
+  const est::FitResult nominal = est::Fit(problem, splits);
+  ASSERT_TRUE(nominal.IsSolutionUsable()) << nominal.BriefReport();
+
+  ScreeningOptions options;
+  options.candidates.effects = {"stribeck", "power_law_viscous"};
+  options.refit_top = 2;
+  options.progress = [](const std::string& line) { std::cout << line << "\n"; };
+  const Diagnosis d = ScreenAndRefit(problem, splits, nominal, options);
+  std::cout << d.FullReport();
+  ASSERT_FALSE(d.refits.empty());
+  const RefitResult& best = d.refits.front();
+  EXPECT_EQ(best.effect, "stribeck");
+  EXPECT_TRUE(best.ok) << best.failure;
+  // The exponent differs (2 against the truth's 1), so much of the error stays (measured: 47 %
+  // closed); the level is the truth's within kLevelTolerance (measured 0.43 N against 0.6 N; with
+  // the default steepness the re-fit ran to 3.1 N at vs = 3.7 mm/s, a ramp, not the hump).
+  constexpr double kMinGapClosed = 0.4;
+  constexpr double kLevelTolerance = 0.4;  // relative
+  EXPECT_GT(best.relative_gain, kMinGapClosed);
+  double fs = 0.0;
+  for (const est::FitParameter& p : best.parameters) {
+    if (p.name == "stribeck.fs") fs = p.value;
+  }
+  EXPECT_NEAR(fs, kTruthExcess, kLevelTolerance * kTruthExcess);
 }
 
 }  // namespace

@@ -54,7 +54,10 @@
 //                                               repeat that term), else free; fc likewise held
 //                                               at 0 when friction.coulomb is on the axis: the
 //                                               block is then the Stribeck excess
-//                                               fs exp(-(v/vs)^2) sign(v) alone
+//                                               fs exp(-(v/vs)^2) sign(v) alone; the sign's
+//                                               steepness 150 over the RMS of the axis velocity
+//                                               (the steepest of the Coulomb grid: a softer
+//                                               sign flattens the hump)
 //   viscous              friction.viscous       fv free (neutral 0)
 //   power_law_viscous    friction.power_viscous fv free (neutral 0); the exponent k held at its
 //                                               nominal 1 for screening (its direction then
@@ -295,8 +298,9 @@ struct Candidate {
   /// A block option chosen from the data like a shape grid: the score test runs with the
   /// candidate applied by apply_with_option(model, value) for each value = factor / scale
   /// (`inverse`) or factor * scale (ShapeGrid::Scale) and keeps the best; the re-fit keeps it.
-  /// The Coulomb block's smoothing steepness is one (an option, not a parameter: freed, it runs
-  /// to a hard sign): 5, 30 and 150 over the RMS of the axis velocity.
+  /// The smoothing steepness of the Coulomb and direction-dependent blocks is one (an option, not
+  /// a parameter: freed, it runs to a hard sign): 5, 30 and 150 over the RMS of the axis
+  /// velocity; the Stribeck block's has the single value 150 over that RMS.
   struct OptionGrid {
     std::string option;
     ShapeGrid::Scale scale = ShapeGrid::Scale::kAbsolute;

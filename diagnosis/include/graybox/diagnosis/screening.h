@@ -13,8 +13,10 @@
 // candidate's block at its neutral value (Candidate::apply); the nominal free parameters theta and
 // Candidate::screened phi are free.
 //
-// Option grids (Candidate::option_grids: the Coulomb block's steepness) are chosen the same
-// way, before the shape grids, and kept in the re-fit (an option is structure, not a parameter).
+// Option grids (Candidate::option_grids: the smoothing steepness of the sign-like friction
+// blocks; at most one per candidate) are chosen the same way, jointly with the shape grids (every
+// option value with the shape values scored at it; the best pair kept), and kept in the re-fit (an
+// option is structure, not a parameter).
 //
 // Shape grids. A candidate with Candidate::shape_grids is scored once per grid value (the shape
 // parameter set to factor * scale, candidates.h) and the value with the largest LM is kept:

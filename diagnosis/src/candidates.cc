@@ -864,6 +864,10 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       const auto& info = problem.built.inputs[problem.built.InputIndex(input)];
       BlockOptions o;
       o.words["unit"] = info.unit.empty() ? "1" : info.unit;
+      // The Pade form: w in (0, 2) spans the lag (w = 1) and the all-pass (w = 2), so a first-order
+      // lag and a transport delay both fit inside the bounds (with the lag form a pure delay ends
+      // at w = 1, a bound, and the re-fit could not be ranked).
+      o.words["form"] = "pade";
       if (info.typical_min < info.typical_max) {
         o.numbers["typical_range"] = {info.typical_min, info.typical_max};
       }
@@ -886,6 +890,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
         }
         c.refit.push_back(q);
       }
+      c.family_ends.push_back(c.instance + ".w");
       c.shape_grids.push_back(
           {c.instance + ".T", Candidate::ShapeGrid::Scale::kSampleTime, "", {1.0, 2.5, 6.0, 15.0}});
       const std::string instance = c.instance;

@@ -30,20 +30,14 @@ Json ParameterJson(const est::FitParameter& p) {
   return j;
 }
 
-// The re-fitted candidate as problem-file text: its [[model.augment]] table (with an option the
-// screening chose; empty for candidates without a declarative form, Candidate::augmentation) and
-// the lines of [model.parameters] with the re-fitted values, free as in the re-fit.
-std::string AugmentText(const RefitResult& f, const CandidateScore* screened) {
-  models::Augmentation a = f.candidate.augmentation;
-  if (a.type.empty()) return "";
-  if (screened != nullptr) {
-    const std::string prefix = f.candidate.instance + " option ";
-    for (const auto& [key, value] : screened->shape_start) {
-      if (key.rfind(prefix, 0) == 0) a.options.numbers[key.substr(prefix.size())] = {value};
-    }
-  }
+// The re-fitted candidate as problem-file text: its [[model.augment]] table (with the option the
+// screening and the re-fit chose; empty for candidates without a declarative form,
+// Candidate::augmentation) and the lines of [model.parameters] with the re-fitted values, free as
+// in the re-fit.
+std::string AugmentText(const RefitResult& f) {
+  if (f.candidate.augmentation.type.empty()) return "";
   try {
-    return est::AugmentationToml(a);
+    return est::AugmentationToml(f.candidate.augmentation);
   } catch (const std::exception&) {
     return "";
   }
@@ -207,11 +201,7 @@ Json RoundJson(const SelectionRound& r) {
     fj["score"] = f.score;
     fj["solver_status"] = f.fit.solver_result.status;
     fj["stages"] = f.stages;
-    const CandidateScore* screened = nullptr;
-    for (const CandidateScore& sc : r.screening.screened) {
-      if (sc.candidate.instance == f.candidate.instance) screened = &sc;
-    }
-    fj["augment_toml"] = AugmentText(f, screened);
+    fj["augment_toml"] = AugmentText(f);
     fj["parameters_toml"] = ParameterLines(f);
     fj["parameters"] = ParametersJson(f.parameters);
     refits.push_back(fj);

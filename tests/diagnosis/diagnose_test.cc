@@ -81,10 +81,16 @@ TEST(Diagnose, ForwardSelectionFindsBothWithheldFrictions) {
   // kNoiseStd / std(v) of NRMSE; the named bound leaves room for the shape mismatch.
   constexpr double kMaxRemainingFraction = 0.5;
   EXPECT_LT(d.remaining_fraction, kMaxRemainingFraction) << d.BriefReport();
-  // The asymmetry's fitted level is the truth's within its shape mismatch.
+  // The asymmetry's fitted level while moving is the truth's within its shape mismatch: f_asym of
+  // the offset variant, f0 + fd of friction.asymmetric (its level at rest, f0 alone, is poorly
+  // determined on a slide that seldom rests: measured 0.93 +- 0.20 N).
   constexpr double kAsymRelTol = 0.25;
-  ASSERT_FALSE(asym.parameters.empty());
-  EXPECT_NEAR(std::fabs(asym.parameters.front().value), kAsym, kAsymRelTol * kAsym);
+  double level = 0.0;
+  for (const est::FitParameter& p : asym.parameters) {
+    const std::string local = p.name.substr(p.name.find('.') + 1);
+    if (local == "f_asym" || local == "f0" || local == "fd") level += p.value;
+  }
+  EXPECT_NEAR(std::fabs(level), kAsym, kAsymRelTol * kAsym) << asym.detail;
   EXPECT_NE(d.verdict.find("closes"), std::string::npos) << d.verdict;
   // A third round was screened and refused.
   ASSERT_EQ(d.rounds.size(), 3u);

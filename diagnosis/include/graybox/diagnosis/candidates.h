@@ -87,11 +87,13 @@
 // each reading v and writing "-F" (or "+F", above), with the block's `motion` option set from v's
 // unit; and, for every external input that no block adds to and whose value changes dv/dt at the
 // test point (a model input that feeds the axis directly), input_delay: Model::InsertOnSignal of
-// "delay.first_order" (w free, neutral 0; T held at its nominal), with the input's unit and
-// typical range as options. States a candidate adds (Dahl's z, the delay's x) start at 0 in every
-// split (screening.h). An input that blocks also write to (a force input friction subtracts
-// from) is delayed alone, before their contributions (Model::InsertOnInput; attachment
-// "input <u> (alone)"), so the friction stays undelayed.
+// "delay.first_order" in its "pade" form (w free in (0, 2), neutral 0: the lag 1/(1 + sT) at w = 1,
+// the Pade all-pass of the delay 2T at w = 2, so a lag and a transport delay both fit inside the
+// bounds; T held at its nominal), with the input's unit and typical range as options. States a
+// candidate adds (Dahl's z, the delay's x) start at 0 in every split (screening.h). An input that
+// blocks also write to (a force input friction subtracts from) is delayed alone, before their
+// contributions (Model::InsertOnInput; attachment "input <u> (alone)"), so the friction stays
+// undelayed.
 //
 // Parameters without a neutral value (shapes: a steepness, a Stribeck velocity, a time constant)
 // cannot be tested at the neutral point: Candidate::screened lists what the score test frees,
@@ -270,6 +272,11 @@ struct Candidate {
   std::vector<std::string> screened;
   /// Free in a re-fit: `screened` plus the shape parameters held for the test.
   std::vector<std::string> refit;
+  /// Parameters of `refit` whose bounds are ends of the effect's family rather than limits of the
+  /// search (the delay's weight w: 1 is the pure lag, 2 the Pade all-pass): a re-fit that ends
+  /// there has fitted that member, not run into a degenerate corner, and is ranked (it is still
+  /// reported at its bound parameter by parameter).
+  std::vector<std::string> family_ends;
   /// A shape parameter (one of `refit` not in `screened`) whose starting value the screening
   /// chooses from the data: the score test runs once per value, factor * scale, and keeps the
   /// value with the largest score (the re-fit starts there).

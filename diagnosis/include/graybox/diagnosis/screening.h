@@ -105,6 +105,13 @@
 //      standstill, then stall there), and the estimation cost can prefer such a shape too: on
 //      point-to-point moves a Stribeck velocity 8 times below the truth's fitted the standstill
 //      phases best and validated 20 % worse than the grid value next to the truth's.
+//      With an option grid (CandidateScore::option_grid_values: a sign's smoothing steepness)
+//      stage A is solved at each other option value too, on a new session of that structure
+//      started from the best fit's parameter values, and the converged solve of lowest
+//      validation NRMSE is kept with its structure (RefitResult::candidate applies it; its
+//      augmentation names the option). The score picked a Coulomb level's softest sign on a
+//      pendulum whose truth had a hard one; that re-fit validated 20 times worse than the
+//      steepest sign's, which a Stribeck curve with fs = fc then fitted in its place.
 //   B. when the candidate has shape parameters: they are freed too, warm-started from A's
 //      estimates (parameters, method variables and multipliers: FitSession::Solve). B replaces
 //      A when its solver converged, no freed shape parameter ends at a bound, its cost is not
@@ -122,8 +129,9 @@
 // stability limit, where the discrete map turns into an integrator, fitted a DC motor's steps
 // 8 times better than its accurate solution). A failure is reported with its reason and never
 // ranked as a success. at_bound is true when a parameter of Candidate::refit ends at a bound
-// (FitParameter::at_bound): reported, and ranked after the interior re-fits (an effect that ends at
-// its bound did not help).
+// (FitParameter::at_bound), except at the bounds that are ends of the effect's family
+// (Candidate::family_ends: the delay's weight at the pure lag or the Pade all-pass): reported, and
+// ranked after the interior re-fits (an effect that ends at its bound did not help).
 //
 // Validation metric: the mean over the splits of role validation of the overall simulation NRMSE
 // (FitResult::evaluations, metrics.h); the test splits when there is no validation split; every
@@ -214,6 +222,8 @@ struct CandidateScore {
   std::vector<std::pair<std::string, double>> shape_start;
   /// Every value tried per shape grid (parameter, values); the re-fit profiles over them.
   std::vector<std::pair<std::string, std::vector<double>>> shape_grid_values;
+  /// Every value of the option grid (Candidate::option_grids); the re-fit profiles over them too.
+  std::vector<double> option_grid_values;
 };
 
 /// The re-fit of one candidate.

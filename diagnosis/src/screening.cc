@@ -586,16 +586,16 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
     auto session =
         std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
     // The budget spread over the solves: each may iterate for what is left; false once spent.
+    auto elapsed = [&started]() {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    };
     auto budget_left = [&]() {
       if (!(max_seconds > 0.0)) return true;
-      const double left =
-          max_seconds -
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      const double left = max_seconds - elapsed();
       if (!(left > 0.0)) return false;
       session->SetMaxSolveSeconds(left);
       return true;
     };
-    bool spent = false;
     // Wall time of the re-fit's solves and of the solver inside them (FitResult::seconds "solve"),
     // reported in RefitResult::stages: the difference is formulation, covariance and evaluation.
     double solve_wall = 0.0, solver_seconds = 0.0;
@@ -658,10 +658,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       std::size_t tried = 1;
       for (const double v : values) {
         if (v == first) continue;
-        if (!budget_left()) {
-          spent = true;
-          break;
-        }
+        if (!budget_left()) break;
         ++tried;
         session->SetParameterValue(shape, v);
         est::FitResult trial = timed_solve(&a);
@@ -690,10 +687,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       std::size_t tried = 1;
       for (const double v : screened.option_grid_values) {
         if (v == first) continue;
-        if (!budget_left()) {
-          spent = true;
-          break;
-        }
+        if (!budget_left()) break;
         ++tried;
         Candidate variant = c;
         const auto apply_with_option = c.apply_with_option;
@@ -733,7 +727,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         shapes.push_back(q);
       }
     }
-    if (!shapes.empty() && out.fit.IsSolutionUsable() && (spent || !budget_left())) {
+    if (!shapes.empty() && out.fit.IsSolutionUsable() && !budget_left()) {
       out.stages.push_back(
           "shape parameters held (at the nominal or profiled values): the "
           "re-fit's budget was spent");
@@ -777,11 +771,9 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
     }
     {
       char line[200];
-      std::snprintf(
-          line, sizeof(line),
-          "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far", solves,
-          solve_wall, solver_seconds,
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+      std::snprintf(line, sizeof(line),
+                    "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far", solves,
+                    solve_wall, solver_seconds, elapsed());
       out.stages.push_back(line);
     }
     for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));

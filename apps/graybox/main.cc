@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag(
       "--version", std::string(graybox::app::Version()) + " (" + graybox::app::GitRevision() + ")");
-  CommandOptions fit, simulate, check, diagnose, withheld;
+  CommandOptions fit, simulate, check, diagnose, withheld, blocks;
   for (CommandOptions* o : {&fit, &simulate, &check, &diagnose, &withheld}) {
     o->command_line = command_line;
   }
@@ -102,6 +102,16 @@ int main(int argc, char** argv) {
       ->required();
   AddDiagnosisOptions(diagnose_cmd, &diagnose);
 
+  CLI::App* blocks_cmd = app.add_subcommand(
+      "blocks",
+      "list the registered block types, or describe one: its inputs, outputs, states, parameters "
+      "(units, bounds, neutral values) and equations");
+  blocks_cmd->add_option("type", blocks.block_type,
+                         "block type to describe (e.g. friction.coulomb)");
+  blocks_cmd->add_option("--option", blocks.block_options,
+                         "a block option key=value (numbers: key=1 or key=1,2; else a word); "
+                         "repeatable");
+
   CLI::App* bench_cmd = app.add_subcommand("bench", "benchmarks of the library");
   bench_cmd->require_subcommand(1);
   CLI::App* withheld_cmd = bench_cmd->add_subcommand(
@@ -126,5 +136,6 @@ int main(int argc, char** argv) {
   if (sim_cmd->parsed()) return graybox::app::RunSimulate(simulate);
   if (diagnose_cmd->parsed()) return graybox::app::RunDiagnose(diagnose);
   if (withheld_cmd->parsed()) return graybox::app::RunBenchWithheld(withheld);
+  if (blocks_cmd->parsed()) return graybox::app::RunBlocks(blocks);
   return graybox::app::RunCheck(check);
 }

@@ -44,6 +44,9 @@ struct CommandOptions {
   // bench withheld only.
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters
+  // blocks only.
+  std::string block_type;                  // empty: list every type
+  std::vector<std::string> block_options;  // "key=value" ("key=1,2" numbers, else a word)
 };
 
 int RunFit(const CommandOptions& options);
@@ -53,6 +56,8 @@ int RunDiagnose(const CommandOptions& options);
 /// The diagnosis on the withheld-effect cases (bench/withheld): writes DIR/bench.json, prints the
 /// confusion table and the pass marks.
 int RunBenchWithheld(const CommandOptions& options);
+/// Lists the registered block types, or describes one (models::DescribeBlock).
+int RunBlocks(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.
 int RunCheck(const CommandOptions& options);
 

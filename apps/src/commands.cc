@@ -2,10 +2,13 @@
 // write what it returns. Nothing is written before the problem and its data have been validated;
 // outputs are written atomically, result.json last.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <sstream>
 #include <stdexcept>
 
 #include "app.h"
@@ -13,6 +16,7 @@
 #include "graybox/diagnosis/diagnose.h"
 #include "graybox/diagnosis/report_html.h"
 #include "graybox/diagnosis/report_json.h"
+#include "graybox/models/block_description.h"
 #include "report.h"
 
 namespace graybox::app {
@@ -311,6 +315,43 @@ int RunCheck(const CommandOptions& o) {
       }
     }
     Progress("  OK: method " + problem.estimation.method + " with " + problem.estimation.solver);
+    return kExitSuccess;
+  });
+}
+
+int RunBlocks(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    if (o.block_type.empty()) {
+      if (!o.block_options.empty()) {
+        throw std::invalid_argument("--option: expected a block TYPE to apply it to, got none");
+      }
+      std::cout << models::ListBlocks();
+      return kExitSuccess;
+    }
+    models::BlockOptions options;
+    for (const std::string& item : o.block_options) {
+      const std::size_t eq = item.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        throw std::invalid_argument("--option '" + item + "': expected key=value");
+      }
+      const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
+      std::vector<double> numbers;
+      std::stringstream list(value);
+      std::string piece;
+      bool all_numbers = !value.empty();
+      while (all_numbers && std::getline(list, piece, ',')) {
+        char* end = nullptr;
+        const double v = std::strtod(piece.c_str(), &end);
+        all_numbers = !piece.empty() && end != nullptr && *end == '\0' && std::isfinite(v);
+        numbers.push_back(v);
+      }
+      if (all_numbers) {
+        options.numbers[key] = numbers;
+      } else {
+        options.words[key] = value;
+      }
+    }
+    std::cout << models::DescribeBlock(o.block_type, options);
     return kExitSuccess;
   });
 }

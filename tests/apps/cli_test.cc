@@ -97,6 +97,20 @@ TEST(Cli, EmpsIdimReproducesThePublishedValues) {
   EXPECT_EQ(ReadText(dir / "out/plots/estimation_outputs.svg").rfind("<?xml", 0), 0u);
 }
 
+TEST(Cli, BlocksListsTheTypesAndDescribesOne) {
+  ScratchDir dir;
+  const RunResult list = RunGraybox("blocks", dir / "list.log");
+  EXPECT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_NE(list.output.find("friction.coulomb "), std::string::npos) << list.output;
+  const RunResult one =
+      RunGraybox("blocks friction.coulomb --option steepness=250", dir / "one.log");
+  EXPECT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_NE(one.output.find("tau = (fc*tanh((qd*250)))"), std::string::npos) << one.output;
+  const RunResult typo = RunGraybox("blocks friction.colomb", dir / "typo.log");
+  EXPECT_EQ(typo.exit_code, 2) << typo.output;  // bad input
+  EXPECT_NE(typo.output.find("did you mean 'friction.coulomb'"), std::string::npos) << typo.output;
+}
+
 TEST(Cli, EmpsClosedLoopAgreesWithIdim) {
   if (!HaveEmps()) GTEST_SKIP() << "no EMPS data";
   ScratchDir dir;

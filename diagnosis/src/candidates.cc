@@ -288,9 +288,13 @@ void AddRipples(const estimators::Problem& problem, const MechanicalAxis& axis,
                 const CandidateOptions& options, std::set<std::string>* taken,
                 std::vector<Candidate>* out) {
   if (axis.position.empty()) return;
-  const std::vector<double> periods = options.ripple_periods.empty()
-                                          ? DefaultRipplePeriods(problem.built, axis)
-                                          : options.ripple_periods;
+  std::vector<double> periods = options.ripple_periods;
+  if (periods.empty()) {
+    const auto scanned = options.ripple_periods_by_position.find(axis.position);
+    periods = scanned != options.ripple_periods_by_position.end() && !scanned->second.empty()
+                  ? scanned->second
+                  : DefaultRipplePeriods(problem.built, axis);
+  }
   for (const double period : periods) {
     BlockOptions o = Motion(axis.prismatic);
     o.numbers["harmonics"] = {1};
@@ -632,6 +636,14 @@ void CandidateOptions::Validate() const {
     if (!std::isfinite(p) || !(p > 0.0)) {
       throw std::invalid_argument(
           "CandidateOptions.ripple_periods: expected finite periods > 0, got " + std::to_string(p));
+    }
+  }
+  for (const auto& [position, periods] : ripple_periods_by_position) {
+    for (const double p : periods) {
+      if (!std::isfinite(p) || !(p > 0.0)) {
+        throw std::invalid_argument("CandidateOptions.ripple_periods_by_position['" + position +
+                                    "']: expected finite periods > 0, got " + std::to_string(p));
+      }
     }
   }
   for (const auto& e : effects) {

@@ -165,6 +165,9 @@ Json RoundJson(const SelectionRound& r) {
   Json j;
   j["round"] = r.round;
   j["validation_nrmse_before"] = r.screening.nominal_validation_nrmse;
+  Json periods = Json::object();
+  for (const auto& [position, values] : r.screening.ripple_periods) periods[position] = values;
+  j["ripple_periods"] = periods;
   Json screened = Json::array();
   for (const CandidateScore& s : r.screening.screened) {
     Json sj;

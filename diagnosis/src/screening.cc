@@ -941,6 +941,7 @@ double ChiSquareSurvival(double x, int dof) {
 }
 
 void ScreeningOptions::Validate() const {
+  period_scan.Validate();
   if (!(refit_max_seconds >= 0.0)) {
     throw std::invalid_argument("ScreeningOptions.refit_max_seconds: expected >= 0, got " +
                                 std::to_string(refit_max_seconds));
@@ -985,7 +986,25 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   d.validation_role = ValidationRole(splits);
   d.nominal_validation_nrmse = ValidationNrmse(nominal.evaluations, d.validation_role);
   InformationCriteria(nominal, &d.nominal_aic, &d.nominal_bic);
-  const std::vector<Candidate> candidates = EnumerateCandidates(problem, options.candidates);
+  // The ripple periods from the nominal residuals' periodogram against each axis' position.
+  CandidateOptions candidate_options = options.candidates;
+  const std::vector<std::string>& wanted_effects =
+      candidate_options.effects.empty() ? DefaultEffects() : candidate_options.effects;
+  if (candidate_options.ripple_periods.empty() &&
+      std::find(wanted_effects.begin(), wanted_effects.end(), "ripple") != wanted_effects.end()) {
+    for (const MechanicalAxis& axis : FindAxes(problem)) {
+      if (axis.position.empty() ||
+          candidate_options.ripple_periods_by_position.count(axis.position)) {
+        continue;
+      }
+      const PeriodScan scan =
+          ScanPeriods(problem.built, nominal, axis.position, !axis.prismatic, options.period_scan);
+      if (scan.peaks.empty()) continue;
+      candidate_options.ripple_periods_by_position[axis.position] = scan.peaks;
+      d.ripple_periods[axis.position] = scan.peaks;
+    }
+  }
+  const std::vector<Candidate> candidates = EnumerateCandidates(problem, candidate_options);
   std::mutex progress_mutex;
   auto report = [&](const std::string& line) {
     if (!options.progress) return;

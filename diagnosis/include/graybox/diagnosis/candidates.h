@@ -125,15 +125,16 @@
 //                  On every axis with a position: a state in m (rad), of role position or none,
 //                  whose time derivative is v (dq/dt equals v at the test point and at a second
 //                  value of v, to 1e-12 relative). Reads the position, writes "-F" (or "+F"). One
-//                  candidate per period: CandidateOptions::ripple_periods when given, else the span
-//                  typical_max - typical_min of the position (2 pi rad on a rotational axis) over
-//                  1, 2, 4 and 8. Detail "period <P> <m|rad>". The period cannot be screened by a
-//                  score test (the output does not depend on it at a zero amplitude), hence one
-//                  candidate per period: the best score picks the period among those proposed. A
-//                  period outside the set (a 36-slot motor's cogging at 2 pi / 36) is found only
-//                  when given in ripple_periods, from the design (pole and slot counts, screw lead,
-//                  gear teeth) or from the peaks of the nominal residuals' spectrum against
-//                  position (which the diagnosis does not compute yet). A ripple seen over a short
+//                  candidate per period: CandidateOptions::ripple_periods when given; else the
+//                  axis' entry of CandidateOptions::ripple_periods_by_position, which
+//                  ScreenAndRefit fills with the peaks of the nominal residuals' periodogram
+//                  against the position (ScanPeriods, period_scan.h: 4 periods, whole numbers per
+//                  turn on a rotational axis); else (no data, or a position that does not move)
+//                  the span typical_max - typical_min of the position (2 pi rad on a rotational
+//                  axis) over 1, 2, 4 and 8. Detail "period <P> <m|rad>". The period cannot be
+//                  screened by a score test (the output does not depend on it at a zero
+//                  amplitude), hence one candidate per period: the best score picks among those
+//                  proposed, and the scan proposes them from the data. A ripple seen over a short
 //                  stroke looks to first order like a constant force (the axis lingers at its
 //                  turning points): screen it on data that travel several periods.
 //   rotor_inertia  mechanics.added_inertia  dM free (neutral 0, >= 0): the body reads
@@ -238,6 +239,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -336,6 +338,9 @@ struct CandidateOptions {
   /// position (the pole or slot pitch, a screw lead, a gear-tooth pitch, or the peaks of the
   /// residual spectrum against position); empty: the defaults of the file comment. Each > 0.
   std::vector<double> ripple_periods = {};
+  /// Ripple periods per position state (ScanPeriods' peaks, period_scan.h), used on that axis when
+  /// ripple_periods is empty; ScreenAndRefit fills it from the nominal residuals.
+  std::map<std::string, std::vector<double>> ripple_periods_by_position = {};
   /// Also propose the LuGre variant of presliding (detail "lugre"; see the file comment).
   bool lugre_presliding = false;
   /// Throws std::invalid_argument for an unknown effect name (with a did-you-mean) or a period

@@ -157,10 +157,12 @@
 // in CandidateScore::failure; it is not re-fitted.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
 #include "graybox/diagnosis/candidates.h"
+#include "graybox/diagnosis/period_scan.h"
 #include "graybox/estimators/fit/fit.h"
 
 namespace graybox::diagnosis {
@@ -170,6 +172,9 @@ struct ScreeningOptions {
   int refit_top = 5;
   /// Which candidates to propose.
   CandidateOptions candidates;
+  /// The periodogram of the residuals against each axis' position whose peaks are the ripple
+  /// candidates' periods (period_scan.h), unless candidates.ripple_periods gives them.
+  PeriodScanOptions period_scan;
   /// Relative difference of two validation NRMSEs below which BIC decides the order (>= 0).
   double tie_tolerance = 1e-3;
   /// Parsimony between nested effects (Candidate::reduces_to): the more general re-fit ranks
@@ -247,6 +252,9 @@ struct RefitResult {
 };
 
 struct Diagnosis {
+  /// The ripple periods screened per position state, from the residuals' periodogram
+  /// (ScanPeriods' peaks, strongest first); empty where the defaults or given periods were used.
+  std::map<std::string, std::vector<double>> ripple_periods;
   /// Every candidate with its score, by LM descending (failures last).
   std::vector<CandidateScore> screened;
   /// The re-fits, ranked (see the file comment).

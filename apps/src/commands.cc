@@ -94,6 +94,12 @@ void Finish(const std::string& out, const std::string& json_name, RunReport* rep
            " plots and traces in " + out);
 }
 
+std::string Join(const std::vector<std::string>& words, const std::string& separator) {
+  std::string s;
+  for (const auto& w : words) s += (s.empty() ? "" : separator) + w;
+  return s;
+}
+
 // The diagnosis options the command line sets (shared by diagnose and bench withheld).
 diagnosis::DiagnoseOptions DiagnoseOptionsFrom(const CommandOptions& o) {
   diagnosis::DiagnoseOptions options;
@@ -313,6 +319,17 @@ int RunCheck(const CommandOptions& o) {
            estimators::CheckModelDerivatives(problem, splits[0], m.ParameterValues())) {
         Progress("  " + line.report);
       }
+    }
+    if (problem.diagnosis.where.count("")) {
+      // The [diagnosis] table: its effect names, and the axes and effects the diagnosis uses.
+      diagnosis::CheckDiagnosisSpec(problem);
+      for (const auto& axis : diagnosis::FindAxes(problem)) {
+        Progress("  diagnosis axis: velocity " + axis.velocity + ", force " + axis.connection +
+                 (axis.position.empty() ? "" : ", position " + axis.position) +
+                 (axis.inputs.empty() ? "" : ", actuators " + Join(axis.inputs, ", ")));
+      }
+      diagnosis::CandidateOptions none;
+      Progress("  diagnosis effects: " + Join(diagnosis::SelectedEffects(problem, none), ", "));
     }
     Progress("  OK: method " + problem.estimation.method + " with " + problem.estimation.solver);
     return kExitSuccess;

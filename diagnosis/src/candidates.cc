@@ -19,6 +19,7 @@
 #include "graybox/models/mechanics.h"
 #include "graybox/models/sensors.h"
 #include "graybox/models/transmission_effects.h"
+#include "graybox/util/did_you_mean.h"
 
 namespace graybox::diagnosis {
 namespace {
@@ -129,25 +130,38 @@ std::string FreshInstance(const models::Model& model, const std::string& base,
   }
 }
 
-// The axis' position: a state in m (rad) whose derivative is v (file comment).
-std::string AxisPosition(const models::StateSpaceModel& built, const MechanicalAxis& axis) {
-  const int v = built.StateIndex(axis.velocity);
+// Whether the state `position`'s time derivative equals the state `velocity` at the test point
+// and at a second value of the velocity (the same expression, so rounding only).
+bool IsIntegralOf(const models::StateSpaceModel& built, const std::string& position,
+                  const std::string& velocity) {
+  const int v = built.StateIndex(velocity);
+  const int q = built.StateIndex(position);
   const TestPoint t = MakeTestPoint(built, v);
   TestPoint t2 = t;
   t2.x[v] = -0.3 * t.x[v] + 0.1;
   const Eigen::VectorXd f1 = built.dynamics({t.x, t.u, t.p})[0];
   const Eigen::VectorXd f2 = built.dynamics({t2.x, t2.u, t2.p})[0];
-  const std::string unit = axis.prismatic ? "m" : "rad";
+  auto close = [](double a, double b) {
+    return std::fabs(a - b) <= kPositionMatchTolerance * std::max(1.0, std::fabs(b));
+  };
+  return close(f1[q], t.x[v]) && close(f2[q], t2.x[v]);
+}
+
+// The axis' position: a state in m (rad; for another velocity unit "X/s", in X) whose derivative
+// is v (file comment).
+std::string AxisPosition(const models::StateSpaceModel& built, const MechanicalAxis& axis) {
+  const int v = built.StateIndex(axis.velocity);
+  const std::string& vunit = built.states[v].unit;
+  const std::string unit = vunit.size() > 2 && vunit.compare(vunit.size() - 2, 2, "/s") == 0
+                               ? vunit.substr(0, vunit.size() - 2)
+                               : (axis.prismatic ? "m" : "rad");
   for (int i = 0; i < built.NumStates(); ++i) {
     if (i == v || built.states[i].unit != unit) continue;
     const auto& s = built.signals[built.SignalIndex(built.states[i].name)];
     // A position by its role, or by its derivative alone when no role is declared (the robot
     // blocks declare none for their joint angles).
     if (s.info.role != SignalRole::kPosition && s.info.role != SignalRole::kNone) continue;
-    auto close = [](double a, double b) {
-      return std::fabs(a - b) <= kPositionMatchTolerance * std::max(1.0, std::fabs(b));
-    };
-    if (close(f1[i], t.x[v]) && close(f2[i], t2.x[v])) return built.states[i].name;
+    if (IsIntegralOf(built, built.states[i].name, axis.velocity)) return built.states[i].name;
   }
   return "";
 }
@@ -186,6 +200,13 @@ bool SummedInput(const models::StateSpaceModel& built, const std::string& input)
   return !built.signals[built.SignalIndex(input)].blocks.empty();
 }
 
+bool IsModelInput(const models::StateSpaceModel& built, const std::string& signal) {
+  for (const auto& in : built.inputs) {
+    if (in.name == signal) return true;
+  }
+  return false;
+}
+
 std::vector<std::string> ReadersOf(const models::Model& model, const std::string& signal) {
   std::vector<std::string> readers;
   for (const auto& b : model.Blocks()) {
@@ -216,10 +237,12 @@ void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis
   };
   std::vector<Command> commands;
   for (const auto& input : axis.inputs) {
-    commands.push_back({input, ReadersOf(problem.model, input), SummedInput(built, input)});
+    commands.push_back({input, ReadersOf(problem.model, input),
+                        IsModelInput(built, input) && SummedInput(built, input)});
   }
   const auto& force = built.signals[built.SignalIndex(axis.force)];
-  for (const auto& producer : force.blocks) {
+  // Commands named by hand ([[diagnosis.axes]] inputs) are the only ones.
+  for (const auto& producer : axis.inputs_named ? std::vector<std::string>{} : force.blocks) {
     for (const auto& b : blocks) {
       if (b.instance != producer || b.type.rfind("friction.", 0) == 0) continue;
       for (const auto& in : b.inputs) {
@@ -334,7 +357,12 @@ void AddSensors(const estimators::Problem& problem, const std::string& effect,
   const models::StateSpaceModel& built = problem.built;
   const std::string type = effect == "sensor_offset" ? models::kSensorOffset : models::kSensorScale;
   const auto blocks = problem.model.Blocks();
+  const estimators::DiagnosisSpec& spec = problem.diagnosis;
   for (const auto& [channel, signal] : problem.model.Outputs()) {
+    if (spec.sensors_given &&
+        std::find(spec.sensors.begin(), spec.sensors.end(), channel) == spec.sensors.end()) {
+      continue;
+    }
     std::vector<std::string> controllers;
     for (const auto& b : blocks) {
       if (b.type.rfind("control.", 0) == 0 &&
@@ -607,6 +635,123 @@ void AddBacklash(const estimators::Problem& problem, std::set<std::string>* take
   }
 }
 
+// d(v)/dt with a probe viscous friction (reading v, writing "-F") at fv = 1 minus at fv = 0, at the
+// test point: negative when F acts on v in the usual sign convention, positive in the other, 0
+// when F does not act on v.
+double ProbeChange(const estimators::Problem& problem, const std::string& velocity,
+                   const std::string& force, bool prismatic) {
+  models::Model probe = problem.model;
+  std::set<std::string> taken;
+  const std::string name = FreshInstance(probe, "probe", &taken);
+  probe.AddBlock(name, "friction.viscous", Motion(prismatic), {velocity}, {"-" + force});
+  const models::StateSpaceModel pm = probe.Build();
+  const int state = pm.StateIndex(velocity);
+  TestPoint t = MakeTestPoint(pm, state);
+  const int fv = pm.ParameterIndex(name + ".fv");
+  t.p[fv] = 0.0;
+  const double a0 = Acceleration(pm, t, state);
+  t.p[fv] = 1.0;
+  const double a1 = Acceleration(pm, t, state);
+  return a1 - a0;
+}
+
+// The friction-family block types among the blocks that write the force signal `f` (file
+// comment: by Problem::blocks, else by the instance's parameter signature).
+std::vector<std::string> PresentFrictionTypes(const estimators::Problem& problem,
+                                              const models::SignalDescription& f, bool prismatic) {
+  std::vector<std::string> present_types;
+  for (const auto& kind : kFrictionKinds) {
+    bool present = false;
+    for (const auto& instance : f.blocks) {
+      bool listed = false;
+      for (const auto& [inst, type] : problem.blocks) {
+        if (inst == instance) {
+          listed = true;
+          present = present || type == kind.type;
+        }
+      }
+      if (!listed) {
+        const auto sig = InstanceSignature(problem.built, instance);
+        present = present || sig == TypeSignature(kind.type, Motion(prismatic)) ||
+                  sig == TypeSignature(kind.type, CandidateOptionsFor(kind.type, prismatic));
+      }
+    }
+    if (present) present_types.push_back(kind.type);
+  }
+  return present_types;
+}
+
+// The model inputs whose value changes d(v)/dt at the test point (`state` is v's index).
+std::vector<std::string> FeedingInputs(const models::StateSpaceModel& built, int state) {
+  std::vector<std::string> inputs;
+  const TestPoint t = MakeTestPoint(built, state);
+  const double a0 = Acceleration(built, t, state);
+  for (int i = 0; i < built.NumInputs(); ++i) {
+    TestPoint ti = t;
+    const double scale =
+        std::max(std::fabs(built.inputs[i].typical_max), std::fabs(built.inputs[i].typical_min));
+    ti.u[i] = scale > 0.0 ? 0.5 * scale : 1.0;
+    const double a1 = Acceleration(built, ti, state);
+    if (std::isfinite(a1) && a1 != a0) inputs.push_back(built.inputs[i].name);
+  }
+  return inputs;
+}
+
+// An axis named in [[diagnosis.axes]] (problem_file.h DiagnosisAxisSpec): the given signals, the
+// rest found as for a metadata axis. Throws estimators::ProblemFileError at the entry when the
+// force does not act on the velocity (with no `sign` given) or the position is not its integral.
+MechanicalAxis NamedAxis(const estimators::Problem& problem,
+                         const estimators::DiagnosisAxisSpec& named) {
+  const models::StateSpaceModel& built = problem.built;
+  const auto& v = built.signals[built.SignalIndex(named.velocity)];
+  const auto& f = built.signals[built.SignalIndex(named.force)];
+  MechanicalAxis axis;
+  axis.velocity = named.velocity;
+  axis.force = named.force;
+  axis.prismatic =
+      named.motion.empty() ? v.info.unit == "m/s" : named.motion == std::string("linear");
+  if (named.sign.empty()) {
+    const double change = ProbeChange(problem, named.velocity, named.force, axis.prismatic);
+    if (!std::isfinite(change) || change == 0.0) {
+      throw estimators::ProblemFileError(
+          named.where, "[[diagnosis.axes]] axis on '" + named.velocity + "': expected the force '" +
+                           named.force + "' to change d(" + named.velocity +
+                           ")/dt, got a change of " + std::to_string(change) +
+                           " from a unit viscous probe at the test point (the middle of every "
+                           "state's typical range); name the force that acts on the velocity, or "
+                           "give 'sign' when it acts only away from that point");
+    }
+    axis.connection = (change < 0.0 ? "-" : "") + named.force;
+  } else {
+    axis.connection = (named.sign == "subtract" ? "-" : "") + named.force;
+  }
+  axis.present_types = PresentFrictionTypes(problem, f, axis.prismatic);
+  if (named.inputs_given) {
+    axis.inputs = named.inputs;
+    axis.inputs_named = true;
+  } else {
+    axis.inputs = FeedingInputs(built, built.StateIndex(named.velocity));
+  }
+  axis.position = AxisPosition(built, axis);
+  if (!named.position.empty()) {
+    if (axis.position != named.position) {
+      // Named by hand: its derivative must still be the velocity (ripple and payload read it).
+      if (!IsIntegralOf(built, named.position, axis.velocity)) {
+        throw estimators::ProblemFileError(
+            named.where, "[[diagnosis.axes]] axis on '" + named.velocity +
+                             "': expected the position '" + named.position +
+                             "' to have d/dt = " + named.velocity +
+                             ", got a state whose derivative differs at the test point" +
+                             (axis.position.empty()
+                                  ? ""
+                                  : " (the state '" + axis.position + "' has that derivative)"));
+      }
+    }
+    axis.position = named.position;
+  }
+  return axis;
+}
+
 }  // namespace
 
 const std::vector<std::string>& AllEffects() {
@@ -627,6 +772,44 @@ const std::vector<std::string>& DefaultEffects() {
     return d;
   }();
   return defaults;
+}
+
+std::vector<std::string> SelectedEffects(const estimators::Problem& problem,
+                                         const CandidateOptions& options) {
+  const estimators::DiagnosisSpec& spec = problem.diagnosis;
+  const std::vector<std::string>& base = !options.effects.empty() ? options.effects
+                                         : spec.effects_given     ? spec.effects
+                                                                  : DefaultEffects();
+  auto in = [](const std::vector<std::string>& list, const std::string& e) {
+    return std::find(list.begin(), list.end(), e) != list.end();
+  };
+  std::vector<std::string> out;
+  for (const std::string& e : AllEffects()) {
+    if ((in(base, e) || in(spec.add_effects, e)) && !in(spec.remove_effects, e)) out.push_back(e);
+  }
+  return out;
+}
+
+void CheckDiagnosisSpec(const estimators::Problem& problem) {
+  const estimators::DiagnosisSpec& spec = problem.diagnosis;
+  const auto& known = AllEffects();
+  std::string list;
+  for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+  for (const auto* key : {"effects", "add_effects", "remove_effects"}) {
+    const std::vector<std::string>& names = std::string(key) == "effects" ? spec.effects
+                                            : std::string(key) == "add_effects"
+                                                ? spec.add_effects
+                                                : spec.remove_effects;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      if (std::find(known.begin(), known.end(), names[i]) != known.end()) continue;
+      const std::string k = std::string(key) + "[" + std::to_string(i) + "]";
+      const auto w = spec.where.find(k);
+      throw estimators::ProblemFileError(
+          w != spec.where.end() ? w->second : estimators::SourceLocation{},
+          "[diagnosis] '" + k + "': unknown effect '" + names[i] + "'" +
+              util::DidYouMeanHint(names[i], known) + "; expected one of " + list);
+    }
+  }
 }
 
 std::string Candidate::Name() const { return effect + " (" + detail + ") on " + attachment; }
@@ -659,54 +842,34 @@ void CandidateOptions::Validate() const {
 
 std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
   const models::StateSpaceModel& built = problem.built;
+  const estimators::DiagnosisSpec& spec = problem.diagnosis;
   std::vector<MechanicalAxis> axes;
-  for (const auto& v : built.signals) {
-    if (v.info.role != SignalRole::kVelocity || v.source != SignalSource::kState) continue;
+  for (int state = 0; state < built.NumStates(); ++state) {
+    const auto& v = built.signals[built.SignalIndex(built.states[state].name)];
+    const estimators::DiagnosisAxisSpec* named = nullptr;
+    for (const auto& a : spec.axes) {
+      if (a.velocity == v.info.name) named = &a;
+    }
+    if (named) {
+      axes.push_back(NamedAxis(problem, *named));
+      continue;
+    }
+    if (!spec.metadata_axes) continue;
+    if (v.info.role != SignalRole::kVelocity) continue;
     const bool prismatic = v.info.unit == "m/s";
     if (!prismatic && v.info.unit != "rad/s") continue;
-    const int state = built.StateIndex(v.info.name);
     std::vector<MechanicalAxis> found;
     std::vector<std::pair<int, double>> found_rank;
     for (const auto& f : built.signals) {
       if (f.info.role != SignalRole::kForce || f.source == SignalSource::kState) continue;
-      // Probe: friction.viscous reading v, writing -F, with fv at 0 and at 1.
-      models::Model probe = problem.model;
-      std::set<std::string> taken;
-      const std::string name = FreshInstance(probe, "probe", &taken);
-      probe.AddBlock(name, "friction.viscous", Motion(prismatic), {v.info.name},
-                     {"-" + f.info.name});
-      const models::StateSpaceModel pm = probe.Build();
-      TestPoint t = MakeTestPoint(pm, state);
-      const int fv = pm.ParameterIndex(name + ".fv");
-      t.p[fv] = 0.0;
-      const double a0 = Acceleration(pm, t, state);
-      t.p[fv] = 1.0;
-      const double a1 = Acceleration(pm, t, state);
-      const double change = a1 - a0;
+      const double change = ProbeChange(problem, v.info.name, f.info.name, prismatic);
       if (!std::isfinite(change) || change == 0.0) continue;
       MechanicalAxis axis;
       axis.velocity = v.info.name;
       axis.force = f.info.name;
       axis.connection = (change < 0.0 ? "-" : "") + f.info.name;
       axis.prismatic = prismatic;
-      for (const auto& kind : kFrictionKinds) {
-        bool present = false;
-        for (const auto& instance : f.blocks) {
-          bool listed = false;
-          for (const auto& [inst, type] : problem.blocks) {
-            if (inst == instance) {
-              listed = true;
-              present = present || type == kind.type;
-            }
-          }
-          if (!listed) {
-            const auto sig = InstanceSignature(built, instance);
-            present = present || sig == TypeSignature(kind.type, Motion(prismatic)) ||
-                      sig == TypeSignature(kind.type, CandidateOptionsFor(kind.type, prismatic));
-          }
-        }
-        if (present) axis.present_types.push_back(kind.type);
-      }
+      axis.present_types = PresentFrictionTypes(problem, f, prismatic);
       // Whether a block writing F reads v (friction on this axis), and how strongly F acts.
       int rank = 0;
       for (const auto& b : problem.model.Blocks()) {
@@ -727,17 +890,7 @@ std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
       if (found_rank[k] > found_rank[best]) best = k;
     }
     MechanicalAxis axis = found[best];
-    // Inputs feeding the axis directly: dv/dt changes with the input (blocks may add to it).
-    const TestPoint t = MakeTestPoint(built, state);
-    const double a0 = Acceleration(built, t, state);
-    for (int i = 0; i < built.NumInputs(); ++i) {
-      TestPoint ti = t;
-      const double scale =
-          std::max(std::fabs(built.inputs[i].typical_max), std::fabs(built.inputs[i].typical_min));
-      ti.u[i] = scale > 0.0 ? 0.5 * scale : 1.0;
-      const double a1 = Acceleration(built, ti, state);
-      if (std::isfinite(a1) && a1 != a0) axis.inputs.push_back(built.inputs[i].name);
-    }
+    axis.inputs = FeedingInputs(built, state);
     axis.position = AxisPosition(built, axis);
     axes.push_back(axis);
   }
@@ -747,11 +900,15 @@ std::vector<MechanicalAxis> FindAxes(const estimators::Problem& problem) {
 std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
                                            const CandidateOptions& options) {
   options.Validate();
+  CheckDiagnosisSpec(problem);
+  const std::vector<std::string> selected = SelectedEffects(problem, options);
   auto wanted = [&](const std::string& effect) {
-    const std::vector<std::string>& list =
-        options.effects.empty() ? DefaultEffects() : options.effects;
-    return std::find(list.begin(), list.end(), effect) != list.end();
+    return std::find(selected.begin(), selected.end(), effect) != selected.end();
   };
+  const estimators::DiagnosisSpec& spec = problem.diagnosis;
+  const bool lugre_presliding = options.lugre_presliding || spec.lugre_presliding;
+  CandidateOptions resolved = options;
+  if (resolved.ripple_periods.empty()) resolved.ripple_periods = spec.ripple_periods;
   std::vector<Candidate> out;
   std::set<std::string> taken;
   std::set<std::string> delayed_inputs;
@@ -764,7 +921,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     for (const auto& kind : kFrictionKinds) {
       if (!wanted(kind.effect) || present(kind.type)) continue;
       const bool lugre = std::string(kind.detail) == "lugre";
-      if (lugre && !options.lugre_presliding) continue;
+      if (lugre && !lugre_presliding) continue;
       Candidate c;
       c.effect = kind.effect;
       c.detail = kind.detail;
@@ -873,7 +1030,9 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     }
     for (const auto& input : wanted("input_delay") ? axis.inputs : std::vector<std::string>{}) {
       if (!delayed_inputs.insert(input).second) continue;
-      const auto& info = problem.built.inputs[problem.built.InputIndex(input)];
+      // A named actuator may be a block output (an equation block's command): delayed for every
+      // reader (InsertOnSignal); a model input that blocks add to is delayed alone.
+      const auto& info = problem.built.signals[problem.built.SignalIndex(input)].info;
       BlockOptions o;
       o.words["unit"] = info.unit.empty() ? "1" : info.unit;
       // The Pade form: w in (0, 2) spans the lag (w = 1) and the all-pass (w = 2), so a first-order
@@ -886,7 +1045,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       Candidate c;
       c.effect = "input_delay";
       c.detail = "delay.first_order";
-      const bool summed = SummedInput(problem.built, input);
+      const bool summed = IsModelInput(problem.built, input) && SummedInput(problem.built, input);
       c.attachment = "input " + input + (summed ? " (alone)" : "");
       c.instance = FreshInstance(problem.model, "input_delay", &taken);
       const auto block = std::shared_ptr<const models::Block>(
@@ -927,7 +1086,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       out.push_back(std::move(c));
     }
     if (wanted("deadzone")) AddDeadzones(problem, axis, &taken, &deadzoned, &out);
-    if (wanted("ripple")) AddRipples(problem, axis, options, &taken, &out);
+    if (wanted("ripple")) AddRipples(problem, axis, resolved, &taken, &out);
     AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), wanted("elasticity"),
              &taken, &out);
   }

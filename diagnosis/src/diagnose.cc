@@ -137,6 +137,9 @@ void DiagnoseOptions::Validate() const {
 DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::SplitData>& splits,
                          const DiagnoseOptions& options) {
   options.Validate();
+  // The [diagnosis] table's effect names and named axes, before anything is computed.
+  CheckDiagnosisSpec(problem);
+  if (!problem.diagnosis.axes.empty()) FindAxes(problem);
   DiagnosisReport d;
   d.problem = problem.name;
   d.options = options;

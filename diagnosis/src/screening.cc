@@ -988,9 +988,8 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   InformationCriteria(nominal, &d.nominal_aic, &d.nominal_bic);
   // The ripple periods from the nominal residuals' periodogram against each axis' position.
   CandidateOptions candidate_options = options.candidates;
-  const std::vector<std::string>& wanted_effects =
-      candidate_options.effects.empty() ? DefaultEffects() : candidate_options.effects;
-  if (candidate_options.ripple_periods.empty() &&
+  const std::vector<std::string> wanted_effects = SelectedEffects(problem, candidate_options);
+  if (candidate_options.ripple_periods.empty() && problem.diagnosis.ripple_periods.empty() &&
       std::find(wanted_effects.begin(), wanted_effects.end(), "ripple") != wanted_effects.end()) {
     for (const MechanicalAxis& axis : FindAxes(problem)) {
       if (axis.position.empty() ||

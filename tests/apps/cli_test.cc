@@ -195,6 +195,27 @@ class GeneratedCli : public ::testing::Test {
   ScratchDir dir_;
 };
 
+TEST_F(GeneratedCli, CheckPrintsTheDiagnosisAxesAndRejectsAnUnknownEffect) {
+  WriteText(dir_ / "pushed.toml", PushedProblem() +
+                                      "[diagnosis]\n"
+                                      "effects = [\"coulomb\", \"ripple\"]\n"
+                                      "remove_effects = [\"ripple\"]\n");
+  const RunResult ok = RunGraybox("check pushed.toml", dir_ / "ok.log", dir_.path().string());
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("diagnosis axis: velocity load.qd, force -force, position load.q, "
+                           "actuators force"),
+            std::string::npos)
+      << ok.output;
+  EXPECT_NE(ok.output.find("diagnosis effects: coulomb\n"), std::string::npos) << ok.output;
+  WriteText(dir_ / "pushed.toml", PushedProblem() + "[diagnosis]\neffects = [\"colomb\"]\n");
+  const RunResult bad = RunGraybox("check pushed.toml", dir_ / "bad.log", dir_.path().string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;  // bad input, with the place
+  EXPECT_NE(bad.output.find("pushed.toml:"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("'effects[0]': unknown effect 'colomb'; did you mean 'coulomb'?"),
+            std::string::npos)
+      << bad.output;
+}
+
 TEST_F(GeneratedCli, FitRecoversKnownParametersAndSimulateReadsTheResult) {
   const RunResult r = Fit(PushedProblem(), "out", "--check-derivatives");
   ASSERT_EQ(r.exit_code, 0) << r.output;

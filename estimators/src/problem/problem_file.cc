@@ -384,7 +384,7 @@ Problem ParseProblem(const std::string& text, const std::string& path) {
     throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
   }
   const internal::Section top(path, root, "");
-  top.Allow({"problem", "model", "data", "estimation", "metrics"});
+  top.Allow({"problem", "model", "data", "estimation", "metrics", "diagnosis"});
   problem.name = fs::path(path).stem().string();
   if (auto p = top.Sub("problem")) {
     p->Allow({"name", "description"});
@@ -395,6 +395,7 @@ Problem ParseProblem(const std::string& text, const std::string& path) {
   internal::ParseData(top, &problem);
   internal::ParseEstimation(top, &problem);
   internal::ParseMetrics(top, &problem);
+  internal::ParseDiagnosis(top, &problem);
   // Every model output must be measured in every data entry (ParseMapping) and equation error
   // needs the outputs it differentiates; nothing else to cross-check before the data are read.
   return problem;

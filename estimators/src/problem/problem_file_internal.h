@@ -1,5 +1,6 @@
 // Private to the problem-file parser (problem_file.cc: [problem], [model], entry points;
-// problem_data.cc: [[data]] and the data loading; problem_estimation.cc: [estimation], [metrics]):
+// problem_data.cc: [[data]] and the data loading; problem_estimation.cc: [estimation], [metrics];
+// problem_diagnosis.cc: [diagnosis]):
 // the TOML section reader with located messages, and shared formatting helpers.
 #pragma once
 
@@ -214,5 +215,7 @@ void ParseModel(const Section& root, Problem* problem);
 void ParseData(const Section& root, Problem* problem);
 void ParseEstimation(const Section& root, Problem* problem);
 void ParseMetrics(const Section& root, Problem* problem);
+/// [diagnosis] (problem_diagnosis.cc).
+void ParseDiagnosis(const Section& root, Problem* problem);
 
 }  // namespace graybox::estimators::internal

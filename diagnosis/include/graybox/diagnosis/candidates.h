@@ -24,6 +24,17 @@
 // any block that reads v; else the one whose probe changes dv/dt the most: one axis per velocity
 // state.
 //
+// Named axes. A problem's [diagnosis] table (estimators::DiagnosisSpec, docs/problem-format.md)
+// can name axes by hand, [[diagnosis.axes]] velocity, force, position, motion, sign, inputs: a
+// named axis on a velocity replaces the metadata's axis there, and with metadata_axes = false the
+// named axes are the only ones (in state order either way). Its velocity may be any state (a
+// generic integrator's output); what is not given is found as above: the sign by the probe (an
+// error naming the entry when the force does not act on the velocity), the position as the state
+// in m or rad (X for a velocity in X/s) whose derivative is v, the inputs by their effect on
+// dv/dt. Named `inputs` may be block outputs too, and are then the only actuator commands of the
+// axis (input_delay in series on the signal for every reader, deadzone for its readers). The table
+// also selects effects (SelectedEffects), ripple periods, LuGre, and the sensor channels.
+//
 // A friction-family block is "present on the axis" when one of the blocks producing F
 // (SignalDescription::blocks) is of that type: by Problem::blocks when the problem lists its
 // instances (problem files do), else by the instance's parameter signature (the set of local
@@ -357,7 +368,19 @@ const std::vector<std::string>& AllEffects();
 /// "elasticity" (see the file comment).
 const std::vector<std::string>& DefaultEffects();
 
-/// A mechanical axis found from metadata (see the file comment).
+/// The effects proposed for `problem`: CandidateOptions::effects when not empty, else the problem
+/// file's [diagnosis] `effects` when given, else DefaultEffects(); then the table's `add_effects`
+/// added and its `remove_effects` taken out; in AllEffects() order.
+std::vector<std::string> SelectedEffects(const estimators::Problem& problem,
+                                         const CandidateOptions& options);
+
+/// Checks what this layer owns in problem.diagnosis (the [diagnosis] table; the parser checked its
+/// signals): every effect name of effects, add_effects and remove_effects. Throws
+/// estimators::ProblemFileError at the element ("file:line:col: [diagnosis] 'effects[1]': unknown
+/// effect 'colomb'; did you mean 'coulomb'? ..."). Diagnose calls it before the nominal fit.
+void CheckDiagnosisSpec(const estimators::Problem& problem);
+
+/// A mechanical axis found from metadata or named in the problem (see the file comment).
 struct MechanicalAxis {
   std::string velocity;    // a state signal of role velocity
   std::string force;       // the force signal acting on it
@@ -366,8 +389,11 @@ struct MechanicalAxis {
   /// `velocity` (ripple and payload attach there); empty when the model has none.
   std::string position;
   bool prismatic = false;  // velocity in m/s (else rad/s)
-  /// External inputs feeding the axis that no block writes to (input_delay attaches there).
+  /// The axis' actuator commands: the model inputs that change dv/dt (input_delay and deadzone
+  /// attach there), or the signals a [[diagnosis.axes]] entry names (`inputs_named`; then
+  /// deadzone attaches to these only, not to the commands of the blocks writing `force`).
   std::vector<std::string> inputs;
+  bool inputs_named = false;
   /// Block types present on the axis (friction family only, by Problem::blocks or signature).
   std::vector<std::string> present_types;
 };

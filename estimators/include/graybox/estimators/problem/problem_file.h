@@ -25,6 +25,10 @@
 //                  [estimation.equation_error], [estimation.n_step]), the integrator
 //                  ([estimation.integrator]), per solver ([estimation.ipopt],
 //                  [estimation.ceres]), and [[estimation.regularization]] terms
+//   [metrics]      the N-step NRMS
+//   [diagnosis]    effects (and add_effects, remove_effects), ripple_periods, lugre_presliding,
+//                  sensors, metadata_axes, [[diagnosis.axes]] (velocity, force, position,
+//                  motion, sign, inputs): what the gap diagnosis proposes and where
 //
 // Errors. Every defect is reported before anything is computed or written, as a ProblemFileError
 // (a std::invalid_argument) whose message starts with the place,
@@ -252,6 +256,62 @@ struct MetricsSpec {
   SourceLocation where;
 };
 
+/// One [[diagnosis.axes]] entry: a mechanical axis named by hand, for models whose blocks do not
+/// declare one (an equation block, a block without signal roles) or where the metadata picks
+/// another force than the engineer means. The diagnosis (diagnosis/candidates.h) attaches the
+/// friction family, ripple, input_delay, deadzone and load candidates there.
+struct DiagnosisAxisSpec {
+  /// A state signal: the axis velocity (its derivative is the acceleration the force produces).
+  std::string velocity;
+  /// The signal the candidates add their force to (a block output or a model input, not a
+  /// state); it must change d(velocity)/dt (checked by the diagnosis).
+  std::string force;
+  /// Optional: a state signal whose derivative is `velocity` (ripple and payload attach there);
+  /// empty: found as for a metadata axis (a state in m or rad with that derivative).
+  std::string position;
+  /// "linear" (units m, m/s, N) or "rotary" (rad, rad/s, N m); empty: from the velocity's unit,
+  /// required when that is neither m/s nor rad/s.
+  std::string motion;
+  /// How a friction force enters `force`: "subtract" (friction blocks write "-force", the usual
+  /// convention) or "add"; empty: found by a probe (a viscous term must decelerate the axis).
+  std::string sign;
+  /// The actuator commands of the axis (model inputs or signals): input_delay and deadzone
+  /// attach there and nowhere else on this axis. Not given (`inputs_given` false): the model
+  /// inputs that change d(velocity)/dt, and for deadzone also the commands of the non-friction
+  /// blocks that write `force`.
+  std::vector<std::string> inputs;
+  bool inputs_given = false;
+  SourceLocation where;
+};
+
+/// [diagnosis]: what `graybox diagnose` (diagnosis/, docs/diagnosis.md) may propose and where.
+/// Signals are checked when the file is loaded; effect names are checked by the diagnosis, which
+/// owns the list (diagnosis::CheckDiagnosisSpec), with the places recorded here.
+struct DiagnosisSpec {
+  /// The effects to screen (replaces the default set; `effects_given`), then `add_effects`
+  /// added to it and `remove_effects` taken out. A command-line --effects list replaces
+  /// `effects` (add and remove still apply).
+  std::vector<std::string> effects;
+  bool effects_given = false;
+  std::vector<std::string> add_effects;
+  std::vector<std::string> remove_effects;
+  /// Ripple periods [m or rad] on every axis with a position (replaces the periodogram's).
+  std::vector<double> ripple_periods;
+  /// Also propose LuGre presliding (off by default, see diagnosis/candidates.h).
+  bool lugre_presliding = false;
+  /// Output channels that get sensor_offset and sensor_scale candidates (`sensors_given`);
+  /// default every output channel.
+  std::vector<std::string> sensors;
+  bool sensors_given = false;
+  /// Axes named by hand. An axis named on a velocity replaces the metadata's axis on it.
+  std::vector<DiagnosisAxisSpec> axes;
+  /// false: only the named axes (no axis from the blocks' metadata).
+  bool metadata_axes = true;
+  /// Places of the keys, for messages: "effects", "add_effects", "remove_effects", "sensors",
+  /// "ripple_periods" and each element "effects[i]" and so on; the table itself under "".
+  std::map<std::string, SourceLocation> where;
+};
+
 struct Problem {
   std::string path;       // as given to LoadProblem
   std::string directory;  // folder of the file, against which data paths resolve
@@ -269,6 +329,8 @@ struct Problem {
   std::vector<DataSpec> data;
   EstimationSpec estimation;
   MetricsSpec metrics;
+  /// [diagnosis] (empty when the file has none).
+  DiagnosisSpec diagnosis;
 };
 
 /// Reads, parses and checks a problem file (no data is read). Throws ProblemFileError.

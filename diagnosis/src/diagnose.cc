@@ -113,6 +113,48 @@ std::string Verdict(const DiagnosisReport& d) {
   return v + ")";
 }
 
+// DiagnosisReport::agreed_effects and agreement from the accepted effects and the sparse
+// regression's proposal.
+void Agreement(DiagnosisReport* d) {
+  const SparseRegression& s = d->sparse_regression;
+  std::vector<std::string> accepted, proposed;
+  for (const AcceptedEffect& a : d->accepted) {
+    if (std::find(accepted.begin(), accepted.end(), a.effect) == accepted.end()) {
+      accepted.push_back(a.effect);
+    }
+  }
+  for (const SparseEffect& e : s.effects) proposed.push_back(e.effect);
+  auto list = [](const std::vector<std::string>& v) {
+    std::string out;
+    for (const auto& x : v) out += (out.empty() ? "" : ", ") + x;
+    return out.empty() ? std::string("none") : out;
+  };
+  d->agreed_effects.clear();
+  for (const auto& a : accepted) {
+    if (std::find(proposed.begin(), proposed.end(), a) != proposed.end()) {
+      d->agreed_effects.push_back(a);
+    }
+  }
+  if (!s.ok) {
+    d->agreement = "no independent proposal: " + s.BriefReport();
+    return;
+  }
+  if (accepted.empty() && proposed.empty()) {
+    d->agreement = "neither forward selection nor the sparse regression of the learned force "
+                   "names an effect";
+    return;
+  }
+  d->agreement = "forward selection accepted " + list(accepted) +
+                 "; the sparse regression of the learned force proposes " + list(proposed) +
+                 (d->agreed_effects.empty() ? "; they share no effect"
+                                            : "; both name " + list(d->agreed_effects));
+  if (!accepted.empty() && !proposed.empty()) {
+    d->agreement += accepted.front() == proposed.front()
+                        ? " (and agree on the first)"
+                        : " (first: " + accepted.front() + " against " + proposed.front() + ")";
+  }
+}
+
 }  // namespace
 
 void DiagnoseOptions::Validate() const {
@@ -120,6 +162,7 @@ void DiagnoseOptions::Validate() const {
   localization.Validate();
   screening.Validate();
   reference.Validate();
+  sparse_regression.Validate();
   if (max_effects < 0) {
     throw std::invalid_argument("DiagnoseOptions.max_effects: expected >= 0, got " +
                                 std::to_string(max_effects));
@@ -156,6 +199,14 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
                              d.nominal.solver_result.status + ": " +
                              d.nominal.solver_result.message +
                              "); a gap cannot be diagnosed around a failed fit");
+  }
+  {
+    const std::string role = ValidationRole(splits);
+    d.nominal_integration_warning = IntegrationCheck(problem, splits, d.nominal, role,
+                                                     ValidationNrmse(d.nominal.evaluations, role));
+    if (!d.nominal_integration_warning.empty()) {
+      progress("nominal fit: " + d.nominal_integration_warning);
+    }
   }
   d.seconds.emplace_back("nominal fit", clock.Lap());
   d.nominal_localization =
@@ -280,6 +331,20 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
                                    : Localize(current.built, current_fit.values,
                                               current_fit.evaluations, options.localization);
   d.seconds.emplace_back("remainder", clock.Lap());
+  SparseRegressionOptions sparse = options.sparse_regression;
+  if (sparse.ripple_periods_by_position.empty() && !d.rounds.empty()) {
+    sparse.ripple_periods_by_position = d.rounds.front().screening.ripple_periods;
+  }
+  d.sparse_regression = RegressLearnedForce(d.reference, sparse);
+  if (d.sparse_regression.ok &&
+      !(d.gap >= options.min_relative_gain * d.nominal_validation_nrmse)) {
+    d.sparse_regression.effects.clear();
+    d.sparse_regression.note =
+        "the flexible reference lowers the " + d.validation_role + " NRMSE by less than " +
+        Format("%g", 100.0 * options.min_relative_gain) + " %: its learned force is not a gap";
+  }
+  Agreement(&d);
+  d.seconds.emplace_back("sparse regression", clock.Lap());
   d.explained = !d.accepted.empty();
   d.verdict = Verdict(d);
   return d;
@@ -292,6 +357,9 @@ std::string DiagnosisReport::BriefReport() const {
     << ", final " << Format("%.4g", final_validation_nrmse) << " ("
     << Format("%.1f", 100.0 * remaining_fraction) << " % remains); " << accepted.size()
     << " effect(s) accepted in " << rounds.size() << " round(s)";
+  if (!nominal_integration_warning.empty()) {
+    o << "\nWARNING: nominal fit: " << nominal_integration_warning;
+  }
   return o.str();
 }
 
@@ -299,6 +367,7 @@ std::string DiagnosisReport::FullReport() const {
   std::ostringstream o;
   o << BriefReport() << "\n\n";
   o << "== nominal fit\n" << nominal.BriefReport() << "\n";
+  if (!nominal_integration_warning.empty()) o << "WARNING: " << nominal_integration_warning << "\n";
   o << reference.BriefReport() << "; gap " << Format("%.4g", gap) << "\n\n";
   o << "== where the nominal gap lies\n" << nominal_localization.FullReport() << "\n";
   for (const SelectionRound& r : rounds) {
@@ -331,6 +400,20 @@ std::string DiagnosisReport::FullReport() const {
   }
   o << "stop: " << stop_reason << "\n\n";
   o << "== unexplained remainder\n" << remainder.FullReport() << "\n";
+  o << "== independent proposal\n" << sparse_regression.BriefReport() << "\n";
+  for (const AxisRegression& a : sparse_regression.axes) {
+    o << "  " << a.velocity << " -> " << a.force << ": learned force RMS "
+      << Format("%.4g", a.learned_force_rms) << " ("
+      << Format("%.1f", 100.0 * a.absorbed_by_nominal)
+      << " % of its energy along the nominal parameters), R^2 " << Format("%.3f", a.r_squared)
+      << " of the rest, " << a.samples << " samples\n";
+    for (const SparseTerm& t : a.terms) {
+      std::snprintf(line, sizeof(line), "    %-20s %-40s %12.5g  share %.3f\n", t.effect.c_str(),
+                    t.shape.c_str(), t.coefficient, t.share);
+      o << line;
+    }
+  }
+  o << agreement << "\n\n";
   o << "== timings\n";
   for (const auto& [phase, s] : seconds) o << "  " << phase << ": " << Format("%.2f", s) << " s\n";
   return o.str();

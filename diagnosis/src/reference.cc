@@ -167,6 +167,8 @@ FlexibleReference FitFlexibleReference(const est::Problem& problem,
         }
         instances.push_back(instance);
         r.networks.push_back("network.mlp on " + signal + " -> " + axis.force);
+        r.network_instances.push_back(instance);
+        r.network_axes.push_back(axis);
       };
       const Moments v = MomentsOf(values[0]);
       if (v.std > 0.0) {
@@ -228,6 +230,7 @@ FlexibleReference FitFlexibleReference(const est::Problem& problem,
     est::FitOptions fo;
     fo.compute_covariance = false;
     r.fit = est::Fit(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
+    r.model = aug.built;
     r.validation_nrmse = ValidationNrmse(r.fit.evaluations, ValidationRole(splits));
     if (!r.fit.IsSolutionUsable()) {
       r.failure = "solver: " + r.fit.solver_result.status + " " + r.fit.solver_result.message;

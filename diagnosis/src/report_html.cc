@@ -252,6 +252,9 @@ void EntriesTable(Page* page, const std::vector<LocalizationEntry>& entries) {
 void Summary(Page* page, const DiagnosisReport& d) {
   page->body << "<p class=\"verdict\">"
              << Text(d.verdict.empty() ? "No verdict was given." : d.verdict) << "</p>\n";
+  if (!d.nominal_integration_warning.empty()) {
+    page->Para("Warning, nominal fit: " + d.nominal_integration_warning + ".", "note");
+  }
   page->Para("graybox diagnosis of problem '" + d.problem +
                  "'; validation role: " + (d.validation_role.empty() ? "n/a" : d.validation_role) +
                  "; " + std::to_string(d.accepted.size()) + " effect(s) accepted in " +
@@ -624,6 +627,20 @@ void Remainder(Page* page, const DiagnosisReport& d,
   }
   page->Sub("Stop reason");
   page->Para(d.stop_reason.empty() ? "n/a" : d.stop_reason);
+  page->Sub("Independent proposal: the learned force's sparse regression");
+  page->Para(d.sparse_regression.BriefReport());
+  for (const AxisRegression& a : d.sparse_regression.axes) {
+    Table t({"axis", "effect", "shape", "coefficient", "share"});
+    for (const SparseTerm& term : a.terms) {
+      t.Row({Escape(a.velocity + " -> " + a.force), Escape(term.effect), Escape(term.shape),
+             Table::Num(Format(term.coefficient)), Table::Num(Pct(term.share))});
+    }
+    page->Para(a.velocity + ": learned force RMS " + Format(a.learned_force_rms) + ", " +
+               Pct(a.absorbed_by_nominal) + " of its energy along the nominal parameters; R^2 " +
+               Format(a.r_squared) + " of the rest.");
+    if (!t.empty()) page->body << t.Html();
+  }
+  if (!d.agreement.empty()) page->Para(d.agreement);
   page->Sub("Fits");
   page->Para("nominal: " + d.nominal.BriefReport());
   if (!d.accepted.empty()) page->Para("final: " + d.final_fit.BriefReport());

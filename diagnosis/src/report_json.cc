@@ -258,6 +258,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   j["explained"] = d.explained;
   Json nominal = FitJson(d.nominal);
   nominal["validation_nrmse"] = d.nominal_validation_nrmse;
+  nominal["integration_warning"] = d.nominal_integration_warning;
   j["nominal"] = nominal;
   j["localization"] = LocalizationJson(d.nominal_localization);
   Json reference;
@@ -299,6 +300,41 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   remainder["final_fit"] = FitJson(d.final_fit);
   remainder["localization"] = LocalizationJson(d.remainder);
   j["remainder"] = remainder;
+  const SparseRegression& sr = d.sparse_regression;
+  Json sparse;
+  sparse["ok"] = sr.ok;
+  sparse["failure"] = sr.failure;
+  sparse["note"] = sr.note;
+  sparse["threshold"] = d.options.sparse_regression.threshold;
+  sparse["effects"] = Json::array();
+  for (const SparseEffect& e : sr.effects) {
+    sparse["effects"].push_back({{"effect", e.effect}, {"share", e.share}});
+  }
+  sparse["axes"] = Json::array();
+  for (const AxisRegression& a : sr.axes) {
+    Json aj;
+    aj["velocity"] = a.velocity;
+    aj["force"] = a.force;
+    aj["samples"] = a.samples;
+    aj["learned_force_rms"] = a.learned_force_rms;
+    aj["absorbed_by_nominal"] = a.absorbed_by_nominal;
+    aj["r_squared"] = a.r_squared;
+    aj["terms"] = Json::array();
+    for (const SparseTerm& t : a.terms) {
+      aj["terms"].push_back({{"effect", t.effect},
+                             {"shape", t.shape},
+                             {"coefficient", t.coefficient},
+                             {"share", t.share}});
+    }
+    aj["effects"] = Json::array();
+    for (const SparseEffect& e : a.effects) {
+      aj["effects"].push_back({{"effect", e.effect}, {"share", e.share}});
+    }
+    sparse["axes"].push_back(aj);
+  }
+  sparse["agreed_effects"] = d.agreed_effects;
+  sparse["agreement"] = d.agreement;
+  j["sparse_regression"] = sparse;
   Json seconds = Json::object();
   for (const auto& [phase, s] : d.seconds) seconds[phase] = s;
   j["seconds"] = seconds;

@@ -528,30 +528,6 @@ void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
   *bic = fit_term + k * std::log(n);
 }
 
-// Whether the fitted dynamics are resolved by the problem's fixed-step integrator: the validation
-// NRMSE again with 4 times the substeps. A fit can exploit the integrator (a decay rate pushed to
-// RK4's stability limit, where the discrete map turns into an integrator); such a fit's validation
-// error changes with the step. Returns the reason when it changes by more than 10 % (relative),
-// else "" (also for CVODES, which controls its own error).
-std::string IntegrationCheck(const est::Problem& aug, const std::vector<est::SplitData>& splits,
-                             const est::FitResult& fit, const std::string& role, double nrmse) {
-  constexpr int kRefinement = 4;
-  constexpr double kTolerance = 0.1;
-  if (aug.estimation.integrator.method != est::IntegrationMethod::kFixedStep) return "";
-  est::Problem fine = aug;
-  fine.estimation.integrator.fixed_step.substeps *= kRefinement;
-  const std::vector<est::SplitData> s = AugmentedSplits(splits, aug.built.NumStates());
-  const double refined =
-      ValidationNrmse(est::Simulate(fine, s, fit.values, fit.initial_states), role);
-  if (std::isfinite(refined) && std::fabs(refined - nrmse) <= kTolerance * nrmse) return "";
-  char line[240];
-  std::snprintf(line, sizeof(line),
-                "the fitted dynamics are not resolved by the integrator: validation NRMSE %.4g "
-                "with the problem's step, %.4g with %d times the substeps",
-                nrmse, refined, kRefinement);
-  return line;
-}
-
 // The re-fit of one candidate, in two stages (see the header): (A) the screened parameters free,
 // started from the score test's one-step estimate (from neutral again when that fails), the shape
 // parameters held; (B) the shape parameters freed too, warm-started from A. B is kept only when
@@ -930,6 +906,25 @@ double ValidationNrmse(const std::vector<est::SplitEvaluation>& evaluations,
     ++count;
   }
   return count > 0 ? sum / count : kNaN;
+}
+
+std::string IntegrationCheck(const est::Problem& aug, const std::vector<est::SplitData>& splits,
+                             const est::FitResult& fit, const std::string& role, double nrmse) {
+  constexpr int kRefinement = 4;
+  constexpr double kTolerance = 0.1;
+  if (aug.estimation.integrator.method != est::IntegrationMethod::kFixedStep) return "";
+  est::Problem fine = aug;
+  fine.estimation.integrator.fixed_step.substeps *= kRefinement;
+  const std::vector<est::SplitData> s = AugmentedSplits(splits, aug.built.NumStates());
+  const double refined =
+      ValidationNrmse(est::Simulate(fine, s, fit.values, fit.initial_states), role);
+  if (std::isfinite(refined) && std::fabs(refined - nrmse) <= kTolerance * nrmse) return "";
+  char line[240];
+  std::snprintf(line, sizeof(line),
+                "the fitted dynamics are not resolved by the integrator: validation NRMSE %.4g "
+                "with the problem's step, %.4g with %d times the substeps",
+                nrmse, refined, kRefinement);
+  return line;
 }
 
 double ChiSquareSurvival(double x, int dof) {

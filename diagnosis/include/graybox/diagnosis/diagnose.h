@@ -35,6 +35,9 @@
 //    DiagnosisReport::stop_reason), or after max_effects accepted effects.
 // 4. The remainder: Localize on the final model's validation simulation. It is reported as
 //    unexplained; nothing is absorbed into a free parameter or a network.
+// 5. The independent proposal: the reference's learned force regressed onto the candidates'
+//    shapes (RegressLearnedForce, sparse_regression.h), and where its effects and the accepted
+//    ones agree (DiagnosisReport::agreed_effects, agreement).
 //
 // ---- Metrics (one name, one meaning) ----------------------------------------------------------
 //   validation NRMSE  the mean over the validation splits (role validation; test when there is
@@ -80,6 +83,7 @@
 #include "graybox/diagnosis/localization.h"
 #include "graybox/diagnosis/reference.h"
 #include "graybox/diagnosis/screening.h"
+#include "graybox/diagnosis/sparse_regression.h"
 #include "graybox/estimators/fit/fit.h"
 
 namespace graybox::diagnosis {
@@ -99,6 +103,9 @@ struct DiagnoseOptions {
   /// Fit the flexible reference (reference.h) to measure the gap.
   bool fit_reference = true;
   ReferenceOptions reference;
+  /// The sparse regression of the reference's learned force (sparse_regression.h; its ripple
+  /// periods are round 1's scanned ones unless set here).
+  SparseRegressionOptions sparse_regression;
   /// Progress lines ("round 1: screening coulomb (1/9), 3.2 s"); none when empty. Also passed to
   /// the screening.
   std::function<void(const std::string&)> progress;
@@ -145,6 +152,10 @@ struct DiagnosisReport {
   DiagnoseOptions options;
 
   estimators::FitResult nominal;
+  /// IntegrationCheck (screening.h) of the nominal fit: empty when its validation error holds with
+  /// 4 times the substeps, else the reason (a nominal fit at the integrator's stability limit, a
+  /// quasi-static corner, leaves every comparison after it in doubt; reported, not thrown).
+  std::string nominal_integration_warning;
   Localization nominal_localization;
   double nominal_validation_nrmse = 0.0;
   /// The flexible reference (fitted when options.fit_reference) and the gap it measures.
@@ -153,6 +164,13 @@ struct DiagnosisReport {
 
   std::vector<SelectionRound> rounds;
   std::vector<AcceptedEffect> accepted;
+  /// The reference's learned force regressed onto the candidates' shapes (sparse_regression.h):
+  /// an independent proposal; not ok without a usable reference.
+  SparseRegression sparse_regression;
+  /// The effects both forward selection accepted and the sparse regression proposes, in the
+  /// order accepted, and one sentence on where the two agree and differ.
+  std::vector<std::string> agreed_effects;
+  std::string agreement;
   std::string stop_reason;
 
   /// The final model's fit (the nominal fit when nothing was accepted) and its localisation.

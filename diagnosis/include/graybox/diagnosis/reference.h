@@ -58,6 +58,7 @@
 #include <string>
 #include <vector>
 
+#include "graybox/diagnosis/candidates.h"
 #include "graybox/estimators/fit/fit.h"
 
 namespace graybox::diagnosis {
@@ -87,6 +88,12 @@ struct FlexibleReference {
   /// "network.mlp on load.qd -> force", one per network added.
   std::vector<std::string> networks;
   int num_network_parameters = 0;
+  /// Per network (parallel to `networks`): its block instance and the axis whose force it adds
+  /// to (sparse_regression.h reads the learned force from these).
+  std::vector<std::string> network_instances;
+  std::vector<MechanicalAxis> network_axes;
+  /// The augmented model that was fitted (its parameter values are fit.values).
+  models::StateSpaceModel model;
   estimators::FitResult fit;
   /// "flexible reference (2 networks, 52 parameters): validation NRMSE 0.041".
   std::string BriefReport() const;

@@ -306,6 +306,17 @@ std::string ValidationRole(const std::vector<estimators::SplitData>& splits);
 double ValidationNrmse(const std::vector<estimators::SplitEvaluation>& evaluations,
                        const std::string& role);
 
+/// Whether `fit`'s dynamics are resolved by `problem`'s fixed-step integrator: the validation NRMSE
+/// (role `role`) simulated again with 4 times the substeps. A fit can exploit the integrator (a
+/// decay rate pushed to RK4's stability limit, where the discrete map becomes an integrator);
+/// such a fit's validation error changes with the step. Returns the reason when it changes by
+/// more than 10 % of `nrmse` (or the refined simulation fails), else "" (also for CVODES, which
+/// controls its own error). The splits are extended to the problem's states (AugmentedSplits).
+std::string IntegrationCheck(const estimators::Problem& problem,
+                             const std::vector<estimators::SplitData>& splits,
+                             const estimators::FitResult& fit, const std::string& role,
+                             double nrmse);
+
 /// The chi-square survival function P(X > x), X ~ chi^2(dof): Q(dof/2, x/2). 1 for x <= 0;
 /// std::invalid_argument for dof < 1.
 double ChiSquareSurvival(double x, int dof);

@@ -85,6 +85,23 @@ std::string Place(const Localization& loc) {
   return place;
 }
 
+// The structured energy of a localisation (diagnose.h): mean over channels of NRMSE^2 max(0,
+// r(1)); NaN without channels.
+double StructuredEnergy(const Localization& loc) {
+  if (loc.channels.empty()) return kNaN;
+  double sum = 0.0;
+  for (const ChannelResidual& c : loc.channels) {
+    double r1 = 0.0;
+    for (const Whiteness& w : loc.whiteness) {
+      if (w.channel == c.name && !w.correlation.empty() && std::isfinite(w.correlation[0])) {
+        r1 = w.correlation[0];
+      }
+    }
+    sum += c.nrmse * c.nrmse * std::max(0.0, r1);
+  }
+  return sum / static_cast<double>(loc.channels.size());
+}
+
 std::string Verdict(const DiagnosisReport& d) {
   std::string v = "the gap lies in " + Place(d.nominal_localization) + "; ";
   if (d.accepted.empty()) {
@@ -110,7 +127,13 @@ std::string Verdict(const DiagnosisReport& d) {
   v += d.validation_role + " NRMSE " + Format("%.4g", d.nominal_validation_nrmse) + " -> " +
        Format("%.4g", d.final_validation_nrmse);
   if (gap) v += ", flexible reference " + Format("%.4g", d.reference.validation_nrmse);
-  return v + ")";
+  v += ")";
+  if (!d.explained) {
+    v +=
+        ", but the candidate library does not explain the gap: " + Percent(d.structured_remaining) +
+        " of the residual's structured energy remains, in " + Place(d.remainder);
+  }
+  return v;
 }
 
 // DiagnosisReport::agreed_effects and agreement from the accepted effects and the sparse
@@ -140,8 +163,9 @@ void Agreement(DiagnosisReport* d) {
     return;
   }
   if (accepted.empty() && proposed.empty()) {
-    d->agreement = "neither forward selection nor the sparse regression of the learned force "
-                   "names an effect";
+    d->agreement =
+        "neither forward selection nor the sparse regression of the learned force "
+        "names an effect";
     return;
   }
   d->agreement = "forward selection accepted " + list(accepted) +
@@ -170,6 +194,11 @@ void DiagnoseOptions::Validate() const {
   if (!(significance > 0.0 && significance < 1.0)) {
     throw std::invalid_argument("DiagnoseOptions.significance: expected in (0, 1), got " +
                                 Format("%g", significance));
+  }
+  if (!(max_structured_remaining > 0.0 && max_structured_remaining <= 1.0)) {
+    throw std::invalid_argument(
+        "DiagnoseOptions.max_structured_remaining: expected in (0, 1], got " +
+        Format("%g", max_structured_remaining));
   }
   if (!(min_relative_gain >= 0.0 && min_relative_gain < 1.0)) {
     throw std::invalid_argument("DiagnoseOptions.min_relative_gain: expected in [0, 1), got " +
@@ -345,7 +374,11 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   }
   Agreement(&d);
   d.seconds.emplace_back("sparse regression", clock.Lap());
-  d.explained = !d.accepted.empty();
+  d.structured_energy_nominal = StructuredEnergy(d.nominal_localization);
+  d.structured_energy_final = StructuredEnergy(d.remainder);
+  d.structured_remaining =
+      d.accepted.empty() ? 1.0 : d.structured_energy_final / d.structured_energy_nominal;
+  d.explained = !d.accepted.empty() && d.structured_remaining <= options.max_structured_remaining;
   d.verdict = Verdict(d);
   return d;
 }
@@ -356,7 +389,11 @@ std::string DiagnosisReport::BriefReport() const {
   o << validation_role << " NRMSE: nominal " << Format("%.4g", nominal_validation_nrmse)
     << ", final " << Format("%.4g", final_validation_nrmse) << " ("
     << Format("%.1f", 100.0 * remaining_fraction) << " % remains); " << accepted.size()
-    << " effect(s) accepted in " << rounds.size() << " round(s)";
+    << " effect(s) accepted in " << rounds.size() << " round(s); structured energy "
+    << Format("%.4g", structured_energy_nominal) << " -> "
+    << Format("%.4g", structured_energy_final) << " ("
+    << Format("%.1f", 100.0 * structured_remaining) << " % remains; "
+    << (explained ? "explained" : "not explained") << ")";
   if (!nominal_integration_warning.empty()) {
     o << "\nWARNING: nominal fit: " << nominal_integration_warning;
   }

@@ -237,6 +237,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   options["tie_tolerance"] = d.options.screening.tie_tolerance;
   options["effects"] = d.options.screening.candidates.effects;
   options["fit_reference"] = d.options.fit_reference;
+  options["max_structured_remaining"] = d.options.max_structured_remaining;
   options["reference"] = {{"hidden", d.options.reference.hidden},
                           {"max_steepness", d.options.reference.max_steepness},
                           {"train_hidden_layer", d.options.reference.train_hidden_layer},
@@ -297,6 +298,9 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   Json remainder;
   remainder["validation_nrmse"] = d.final_validation_nrmse;
   remainder["remaining_fraction"] = d.remaining_fraction;
+  remainder["structured_energy_nominal"] = d.structured_energy_nominal;
+  remainder["structured_energy_final"] = d.structured_energy_final;
+  remainder["structured_remaining"] = d.structured_remaining;
   remainder["final_fit"] = FitJson(d.final_fit);
   remainder["localization"] = LocalizationJson(d.remainder);
   j["remainder"] = remainder;

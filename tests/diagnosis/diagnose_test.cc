@@ -159,6 +159,25 @@ TEST(Diagnose, JsonHasTheDocumentedKeys) {
   EXPECT_EQ(j.at("rounds").at(0).at("screened").size(), d.rounds[0].screening.screened.size());
   EXPECT_EQ(j.at("localization").at("entries").size(), d.nominal_localization.entries.size());
   EXPECT_EQ(j.at("stop_reason").get<std::string>(), "max_effects = 1 reached");
+  // The structured energy: the accepted friction removes most of the residual's structure (its
+  // lag-1 autocorrelation near 1 before), and `explained` follows the documented rule.
+  const auto& rem = j.at("remainder");
+  EXPECT_GT(d.structured_energy_nominal, 0.0);
+  EXPECT_DOUBLE_EQ(rem.at("structured_remaining").get<double>(), d.structured_remaining);
+  EXPECT_DOUBLE_EQ(d.structured_remaining, d.structured_energy_final / d.structured_energy_nominal);
+  EXPECT_LT(d.structured_remaining, d.options.max_structured_remaining) << d.BriefReport();
+  EXPECT_TRUE(d.explained);
+  EXPECT_EQ(j.at("explained").get<bool>(), d.explained);
+  // With a bound below what remains, the same accepted effect does not explain the gap, and the
+  // verdict says so with the remainder's place.
+  DiagnoseOptions strict = o;
+  strict.max_structured_remaining = 0.5 * d.structured_remaining;
+  const DiagnosisReport s = Diagnose(NominalProblem(), Splits(true), strict);
+  EXPECT_EQ(s.accepted.size(), 1u);
+  EXPECT_FALSE(s.explained);
+  EXPECT_NE(s.verdict.find("does not explain the gap"), std::string::npos) << s.verdict;
+  strict.max_structured_remaining = 0.0;
+  EXPECT_THROW(strict.Validate(), std::invalid_argument);
 }
 
 TEST(Diagnose, InvalidOptionsNameTheField) {

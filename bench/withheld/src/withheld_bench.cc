@@ -75,7 +75,9 @@ WithheldRecord Run(const WithheldCase& c, const diagnosis::DiagnoseOptions& opti
       r.shrinkage_error = std::fabs(r.shrinkage / r.achievable_shrinkage - 1.0);
     }
     if (!c.in_library) {
-      r.pass = r.accepted.empty();
+      // The diagnosis' own verdict: no effect, or effects that leave most of the residual's
+      // structure (DiagnosisReport::explained).
+      r.pass = !d.explained;
     } else if (c.withheld.size() == 1) {
       r.pass = r.top == c.withheld.front();
       r.named_or_equivalent = r.pass || Contains(r.top_alternatives, c.withheld.front());

@@ -24,7 +24,9 @@
 //   shrinkage_error      |shrinkage / achievable_shrinkage - 1| (NaN when nothing is achievable)
 //   pass       in the library, one effect: top is the withheld effect;
 //              in the library, two effects: both are among the accepted;
-//              outside the library: nothing was accepted ("not explained by the library").
+//              outside the library: the diagnosis says the library does not explain the gap
+//              (DiagnosisReport::explained false: nothing accepted, or accepted effects that
+//              leave more than half of the residual's structured energy, diagnose.h).
 //   failure    the exception text when the diagnosis could not run (pass = false)
 //
 // ---- Summary (the pass marks)
@@ -32,7 +34,7 @@
 //   top-ranked rate    of the one-effect library cases, the share whose top is the withheld one
 //   named-or-equivalent rate  the same, counting the top's alternatives too
 //   both-found rate    of the two-effect cases, the share with both among the accepted
-//   unexplained rate   of the cases outside the library, the share with nothing accepted
+//   unexplained rate   of the cases outside the library, the share not explained (above)
 //   shrinkage within   of the passing library cases, the share with shrinkage_error <= 0.25
 //
 // Cases run one after the other (Ipopt is serialised anyway); each diagnosis screens and re-fits

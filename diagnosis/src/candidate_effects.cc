@@ -1,0 +1,445 @@
+#include "candidates_internal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "graybox/models/chamber_effects.h"
+#include "graybox/models/drives.h"
+#include "graybox/models/friction.h"
+#include "graybox/models/loads.h"
+#include "graybox/models/mechanics.h"
+#include "graybox/models/sensors.h"
+#include "graybox/models/transmission_effects.h"
+#include "graybox/util/did_you_mean.h"
+
+namespace graybox::diagnosis::internal {
+
+// deadzone (file comment): the axis' free inputs, and the command inputs of the non-friction
+// blocks that write the axis force.
+void AddDeadzones(const estimators::Problem& problem, const MechanicalAxis& axis,
+                  std::set<std::string>* taken, std::set<std::string>* done,
+                  std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  const auto blocks = problem.model.Blocks();
+  struct Command {
+    std::string signal;
+    std::vector<std::string> readers;
+    bool summed_input;  // a model input blocks add to: the dead zone goes on the input alone
+  };
+  std::vector<Command> commands;
+  for (const auto& input : axis.inputs) {
+    commands.push_back({input, ReadersOf(problem.model, input),
+                        IsModelInput(built, input) && SummedInput(built, input)});
+  }
+  const auto& force = built.signals[built.SignalIndex(axis.force)];
+  // Commands named by hand ([[diagnosis.axes]] inputs) are the only ones.
+  for (const auto& producer : axis.inputs_named ? std::vector<std::string>{} : force.blocks) {
+    for (const auto& b : blocks) {
+      if (b.instance != producer || b.type.rfind("friction.", 0) == 0) continue;
+      for (const auto& in : b.inputs) {
+        const auto& s = built.signals[built.SignalIndex(in)];
+        const SignalRole role = s.info.role;
+        if (s.source == SignalSource::kState || role == SignalRole::kPosition ||
+            role == SignalRole::kVelocity || role == SignalRole::kAcceleration) {
+          continue;
+        }
+        commands.push_back({in, {producer}, false});
+      }
+    }
+  }
+  for (const auto& [signal, readers, summed_input] : commands) {
+    if (readers.empty() || !done->insert(signal).second) continue;
+    const auto& info = built.signals[built.SignalIndex(signal)].info;
+    Candidate c;
+    c.effect = "deadzone";
+    c.detail = models::kActuatorDeadzone;
+    c.attachment =
+        "command " + signal + (summed_input ? " (input alone)" : "") + " -> " + Join(readers);
+    c.instance = FreshInstance(problem.model, "deadzone", taken);
+    const auto block = std::shared_ptr<const models::Block>(
+        models::BlockRegistry::Global().Create(models::kActuatorDeadzone, QuantityOptions(info)));
+    const std::vector<std::string> held = SplitParameters(*block, &c);
+    const std::string instance = c.instance;
+    const std::string sig = signal;
+    const std::vector<std::string> rd = readers;
+    c.augmentation = {summed_input ? models::Augmentation::Kind::kOnInput
+                                   : models::Augmentation::Kind::kForReaders,
+                      c.instance,
+                      models::kActuatorDeadzone,
+                      QuantityOptions(info),
+                      {},
+                      {},
+                      signal,
+                      summed_input ? std::vector<std::string>{} : readers,
+                      {}};
+    const bool on_input = summed_input;
+    c.apply = [block, instance, sig, rd, held, on_input](models::Model* m) {
+      if (on_input) {
+        m->InsertOnInput(sig, instance, block);
+      } else {
+        m->InsertForReaders(sig, instance, block, rd);
+      }
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
+namespace {
+// The default ripple periods of an axis (file comment).
+std::vector<double> DefaultRipplePeriods(const models::StateSpaceModel& built,
+                                         const MechanicalAxis& axis) {
+  double span = kTwoPi;
+  if (axis.prismatic) {
+    const auto& q = built.states[built.StateIndex(axis.position)];
+    span = q.typical_max - q.typical_min;
+    if (!(span > 0.0)) return {};
+  }
+  return {span, span / 2.0, span / 4.0, span / 8.0};
+}
+}  // namespace
+
+// ripple (file comment): one first-harmonic candidate per period.
+void AddRipples(const estimators::Problem& problem, const MechanicalAxis& axis,
+                const CandidateOptions& options, std::set<std::string>* taken,
+                std::vector<Candidate>* out) {
+  if (axis.position.empty()) return;
+  std::vector<double> periods = options.ripple_periods;
+  if (periods.empty()) {
+    const auto scanned = options.ripple_periods_by_position.find(axis.position);
+    periods = scanned != options.ripple_periods_by_position.end() && !scanned->second.empty()
+                  ? scanned->second
+                  : DefaultRipplePeriods(problem.built, axis);
+  }
+  for (const double period : periods) {
+    BlockOptions o = Motion(axis.prismatic);
+    o.numbers["harmonics"] = {1};
+    o.numbers["period"] = {period};
+    Candidate c;
+    c.effect = "ripple";
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), "period %.6g %s", period, axis.prismatic ? "m" : "rad");
+    c.detail = buf;
+    c.attachment = "position " + axis.position + " -> force " + axis.force;
+    c.instance = FreshInstance(problem.model, "ripple", taken);
+    const auto block = std::shared_ptr<const models::Block>(
+        models::BlockRegistry::Global().Create(models::kRippleFriction, o));
+    const std::vector<std::string> held = SplitParameters(*block, &c);
+    const std::string instance = c.instance, position = axis.position, connection = axis.connection;
+    c.augmentation = {models::Augmentation::Kind::kAdd,
+                      c.instance,
+                      models::kRippleFriction,
+                      o,
+                      {axis.position},
+                      {axis.connection},
+                      "",
+                      {},
+                      {}};
+    c.apply = [block, instance, position, connection, held](models::Model* m) {
+      m->Augment(instance, block, {position}, {connection});
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
+// sensor_offset, sensor_scale (file comment): on every output channel; a second variant where a
+// controller reads the channel's signal too.
+void AddSensors(const estimators::Problem& problem, const std::string& effect,
+                std::set<std::string>* taken, std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  const std::string type = effect == "sensor_offset" ? models::kSensorOffset : models::kSensorScale;
+  const auto blocks = problem.model.Blocks();
+  const estimators::DiagnosisSpec& spec = problem.diagnosis;
+  for (const auto& [channel, signal] : problem.model.Outputs()) {
+    if (spec.sensors_given &&
+        std::find(spec.sensors.begin(), spec.sensors.end(), channel) == spec.sensors.end()) {
+      continue;
+    }
+    std::vector<std::string> controllers;
+    for (const auto& b : blocks) {
+      if (b.type.rfind("control.", 0) == 0 &&
+          std::find(b.inputs.begin(), b.inputs.end(), signal) != b.inputs.end()) {
+        controllers.push_back(b.instance);
+      }
+    }
+    const models::SignalInfo& info = built.outputs[built.OutputIndex(channel)];
+    for (const bool feedback : {false, true}) {
+      if (feedback && controllers.empty()) continue;
+      Candidate c;
+      c.effect = effect;
+      c.detail = type + (feedback ? ", output and feedback" : ", output");
+      c.attachment = "output " + channel + (feedback ? " and controller " + Join(controllers) : "");
+      c.instance = FreshInstance(problem.model, effect, taken);
+      const auto block = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(type, QuantityOptions(info)));
+      const std::vector<std::string> held = SplitParameters(*block, &c);
+      const std::string instance = c.instance, ch = channel;
+      const std::vector<std::string> readers = feedback ? controllers : std::vector<std::string>{};
+      c.augmentation = {models::Augmentation::Kind::kOnOutput,
+                        c.instance,
+                        type,
+                        QuantityOptions(info),
+                        {},
+                        {},
+                        channel,
+                        readers,
+                        {}};
+      c.apply = [block, instance, ch, readers, held](models::Model* m) {
+        m->InsertOnOutput(ch, instance, block, readers);
+        for (const auto& q : held) m->Fix(q);
+      };
+      out->push_back(std::move(c));
+    }
+  }
+}
+
+namespace {
+// The rigid body that integrates the axis force (mechanics.mass owning v and reading F), for the
+// added-load candidates; empty when the axis has none.
+struct RigidBody {
+  std::string instance, mass;  // the instance and its inertia parameter
+  bool mass_free = false;
+};
+}  // namespace
+
+namespace {
+RigidBody FindRigidBody(const estimators::Problem& problem, const MechanicalAxis& axis) {
+  const models::StateSpaceModel& built = problem.built;
+  const auto& v = built.signals[built.SignalIndex(axis.velocity)];
+  if (v.blocks.size() != 1) return {};
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.instance != v.blocks[0] || b.type != models::kMassBlock || b.inputs.size() != 1 ||
+        b.inputs[0] != axis.force) {
+      continue;
+    }
+    RigidBody body{b.instance, b.instance + ".mass", false};
+    body.mass_free = built.parameters[built.ParameterIndex(body.mass)].free;
+    return body;
+  }
+  return {};
+}
+}  // namespace
+
+// rotor_inertia and payload (file comment).
+void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bool inertia,
+              bool payload, bool elasticity, std::set<std::string>* taken,
+              std::vector<Candidate>* out) {
+  const RigidBody body = FindRigidBody(problem, axis);
+  if (body.instance.empty()) return;
+  const double mass_now = problem.built.parameters[problem.built.ParameterIndex(body.mass)].value;
+  struct Variant {
+    std::string effect, type, detail;
+    double gravity;  // prismatic payload: g along +q
+  };
+  std::vector<Variant> variants;
+  // An added inertia next to a free inertia is the same unknown twice. A sliding body has no rotor:
+  // its added mass is a payload.
+  if (inertia && !body.mass_free && !axis.prismatic) {
+    variants.push_back({"rotor_inertia", models::kAddedInertia, models::kAddedInertia, 0.0});
+  }
+  if (payload && !axis.position.empty()) {
+    if (axis.prismatic) {
+      // Next to a free mass a prismatic payload's mass repeats it and its weight alone is a
+      // constant force (asymmetric_friction's constant offset): proposed on a known mass only.
+      if (!body.mass_free) {
+        variants.push_back({"payload", models::kPayload, "horizontal, added mass", 0.0});
+        variants.push_back(
+            {"payload", models::kPayload, "vertical, q up", -models::kStandardGravity});
+        variants.push_back(
+            {"payload", models::kPayload, "vertical, q down", models::kStandardGravity});
+      }
+    } else {
+      variants.push_back({"payload", models::kPayload, "rotational", 0.0});
+    }
+  }
+  // Controllers reading the axis position: the elastic variant with the loop closed on the motor
+  // side reads q + e there.
+  std::vector<std::string> controllers;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.type.rfind("control.", 0) == 0 && !axis.position.empty() &&
+        std::find(b.inputs.begin(), b.inputs.end(), axis.position) != b.inputs.end()) {
+      controllers.push_back(b.instance);
+    }
+  }
+  if (elasticity) {
+    variants.push_back(
+        {"elasticity", models::kElasticCoupling, "two-mass, force on the motor side", 0.0});
+    if (!controllers.empty()) {
+      variants.push_back({"elasticity", models::kElasticCoupling,
+                          "two-mass, force and feedback on the motor side", 0.0});
+    }
+  }
+  for (const Variant& var : variants) {
+    const bool is_payload = var.effect == "payload";
+    const bool is_elastic = var.effect == "elasticity";
+    const bool prismatic = axis.prismatic;
+    const double gravity = var.gravity;
+    auto options = [prismatic, is_payload, gravity](double mass) {
+      BlockOptions o = Motion(prismatic);
+      o.numbers["axis_inertia"] = {mass};
+      if (is_payload && prismatic) o.numbers["gravity"] = {gravity};
+      return o;
+    };
+    Candidate c;
+    c.effect = var.effect;
+    c.detail = var.detail;
+    c.attachment = "force " + axis.force + " -> " + body.instance +
+                   (is_payload ? ", position " + axis.position : "");
+    c.instance = FreshInstance(problem.model, var.effect, taken);
+    if (is_payload && !prismatic && !body.mass_free) c.reduces_to.push_back("rotor_inertia");
+    if (is_elastic) {
+      // No score test; the stiffness profiled over modes at 1, 2, 4 and 8 % of the sample rate
+      // (K = (2 pi f)^2 J_eff, J_eff = J M / (J + M) = M / 5 at the nominal J = M / 4).
+      c.structural = true;
+      std::vector<double> factors;
+      for (const double f : {0.01, 0.02, 0.04, 0.08}) {
+        factors.push_back(std::pow(2.0 * M_PI * f, 2) * 0.2 * mass_now);
+      }
+      c.shape_grids.push_back(
+          {c.instance + ".K", Candidate::ShapeGrid::Scale::kSampleRateSquared, "", factors});
+    }
+    const auto block = models::BlockRegistry::Global().Create(var.type, options(mass_now));
+    std::vector<std::string> held = SplitParameters(*block, &c);
+    // The payload's rotational inertia next to a free body inertia: held at 0 (gravity only).
+    if (is_payload && !prismatic && body.mass_free) {
+      const std::string dm = c.instance + ".dM";
+      c.screened.erase(std::find(c.screened.begin(), c.screened.end(), dm));
+      c.refit.erase(std::find(c.refit.begin(), c.refit.end(), dm));
+      held.push_back(dm);
+    }
+    const std::string instance = c.instance, force = axis.force, reader = body.instance,
+                      mass = body.mass, type = var.type;
+    const std::vector<std::string> extra =
+        is_payload ? std::vector<std::string>{axis.position} : std::vector<std::string>{};
+    const bool motor_feedback = is_elastic && var.detail.find("feedback") != std::string::npos;
+    if (motor_feedback) c.attachment += ", controller " + Join(controllers) + " on q + e";
+    const std::string position = axis.position;
+    const std::string unit = prismatic ? "m" : "rad";
+    c.apply = [options, instance, force, reader, mass, type, extra, held, motor_feedback, position,
+               controllers, unit](models::Model* m) {
+      // The body's inertia as the model has it now (the nominal fit's value in screening).
+      const auto b = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(type, options(m->Parameter(mass).value)));
+      m->InsertForReaders(force, instance, b, {reader}, extra);
+      for (const auto& q : held) m->Fix(q);
+      if (motor_feedback) {
+        // The controllers read the motor-side position q + e: a unit gain in series on q for
+        // them, and the deflection e added to its output.
+        BlockOptions g;
+        g.words["input_unit"] = unit;
+        g.words["output_unit"] = unit;
+        m->InsertForReaders(position, instance + "_motor_q", models::kGainBlock, g, controllers);
+        m->Augment(instance + "_deflection", models::kGainBlock, g, {instance + ".e"},
+                   {instance + "_motor_q.out"});
+        m->Fix(instance + "_motor_q.k");
+        m->Fix(instance + "_deflection.k");
+      }
+    };
+    out->push_back(std::move(c));
+  }
+}
+
+// leakage and polytropic_index on every pneumatic.chamber (file comment).
+void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool polytropic,
+                       std::set<std::string>* taken, std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.type != "pneumatic.chamber" || b.inputs.size() != 3) continue;
+    const std::string pressure = b.instance + ".p", mdot = b.inputs[0];
+    const std::string exponent = b.instance + ".polytropic_exponent";
+    const std::string temperature = b.instance + ".temperature";
+    if (leakage) {
+      Candidate c;
+      c.effect = "leakage";
+      c.detail = models::kChamberLeak;
+      c.attachment = "chamber " + b.instance + " (flow " + mdot + ")";
+      c.instance = FreshInstance(problem.model, "leakage", taken);
+      const auto block = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(models::kChamberLeak));
+      const std::vector<std::string> held = SplitParameters(*block, &c);
+      const std::string instance = c.instance;
+      c.apply = [block, instance, pressure, mdot, held](models::Model* m) {
+        m->Augment(instance, block, {pressure}, {"-" + mdot});
+        for (const auto& q : held) m->Fix(q);
+      };
+      out->push_back(std::move(c));
+    }
+    // A free exponent already is this unknown.
+    if (polytropic && !built.parameters[built.ParameterIndex(exponent)].free) {
+      Candidate c;
+      c.effect = "polytropic_index";
+      c.detail = models::kPolytropicCorrection;
+      c.attachment = "chamber " + b.instance + " (flow " + mdot + ")";
+      c.instance = FreshInstance(problem.model, "polytropic_index", taken);
+      const auto block = models::BlockRegistry::Global().Create(models::kPolytropicCorrection);
+      const std::vector<std::string> held = SplitParameters(*block, &c);
+      const std::string instance = c.instance, chamber = b.instance, rate = b.inputs[2];
+      c.apply = [instance, chamber, pressure, mdot, rate, temperature, held](models::Model* m) {
+        // The chamber's temperature as the model has it now. The gas constant is the chamber
+        // block's option, which the model does not expose: air, the chamber's default.
+        BlockOptions o;
+        o.numbers["temperature"] = {m->Parameter(temperature).value};
+        const auto block = std::shared_ptr<const models::Block>(
+            models::BlockRegistry::Global().Create(models::kPolytropicCorrection, o));
+        m->InsertForReaders(mdot, instance, block, {chamber}, {pressure, rate});
+        for (const auto& q : held) m->Fix(q);
+      };
+      out->push_back(std::move(c));
+    }
+  }
+}
+
+// backlash on every drive.two_mass without one (file comment).
+void AddBacklash(const estimators::Problem& problem, std::set<std::string>* taken,
+                 std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.type != models::kTwoMassDrive || b.inputs.size() != 2 || b.inputs[0] == b.inputs[1]) {
+      continue;
+    }
+    bool has_backlash = false;
+    for (const auto& p : built.parameters)
+      has_backlash = has_backlash || p.name == b.instance + ".b";
+    if (has_backlash) continue;
+    const std::string joint = b.instance, motor = b.inputs[0], load = b.inputs[1];
+    Candidate c;
+    c.effect = "backlash";
+    c.detail = models::kBacklashCorrection;
+    c.attachment = "joint " + joint + " (torques " + motor + ", " + load + ")";
+    c.instance = FreshInstance(problem.model, "backlash", taken);
+    auto options = [](double ke, double d) {
+      BlockOptions o;
+      o.numbers["stiffness"] = {ke};
+      o.numbers["damping"] = {d};
+      return o;
+    };
+    const auto block = models::BlockRegistry::Global().Create(
+        models::kBacklashCorrection,
+        options(built.parameters[built.ParameterIndex(joint + ".Ke")].value,
+                built.parameters[built.ParameterIndex(joint + ".d")].value));
+    const std::vector<std::string> held = SplitParameters(*block, &c);
+    const std::string instance = c.instance;
+    c.apply = [options, instance, joint, motor, load, held](models::Model* m) {
+      // The joint's stiffness and damping as the model has them now (transmission_effects.h).
+      const auto blk = std::shared_ptr<const models::Block>(models::BlockRegistry::Global().Create(
+          models::kBacklashCorrection,
+          options(m->Parameter(joint + ".Ke").value, m->Parameter(joint + ".d").value)));
+      m->Augment(instance, blk, {joint + ".q_m", joint + ".q_l", joint + ".qd_m", joint + ".qd_l"},
+                 {"-" + motor, load});
+      for (const auto& q : held) m->Fix(q);
+    };
+    out->push_back(std::move(c));
+  }
+}
+
+}  // namespace graybox::diagnosis::internal

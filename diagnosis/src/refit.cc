@@ -1,0 +1,297 @@
+#include "screening_internal.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/QR>
+#include <Eigen/Sparse>
+#include <Eigen/SparseLU>
+
+#include "graybox/estimators/integrators/integrator_factory.h"
+#include "graybox/estimators/nlp/nlp.h"
+
+namespace graybox::diagnosis::internal {
+
+namespace est = graybox::estimators;
+
+void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
+  const double n = fit.num_residuals;
+  const double rss = 2.0 * fit.solver_result.cost;
+  int k = 0;
+  for (const auto& p : fit.parameters) k += p.free ? 1 : 0;
+  if (!(n > 0.0) || !(rss > 0.0)) {
+    *aic = *bic = kNaN;
+    return;
+  }
+  const double fit_term = n * std::log(rss / n);
+  *aic = fit_term + 2.0 * k;
+  *bic = fit_term + k * std::log(n);
+}
+
+// The re-fit of one candidate, in two stages (see the header): (A) the screened parameters free,
+// started from the score test's one-step estimate (from neutral again when that fails), the shape
+// parameters held; (B) the shape parameters freed too, warm-started from A. B is kept only when
+// it is usable, no freed shape parameter ends at a bound and its cost is not above A's.
+RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                  const est::FitResult& nominal, const CandidateScore& screened,
+                  const std::string& role, double before, double max_seconds) {
+  const Candidate& c = screened.candidate;
+  RefitResult out;
+  out.candidate = c;
+  out.effect = c.effect;
+  out.detail = c.detail;
+  out.attachment = c.attachment;
+  out.score = screened.score;
+  out.validation_nrmse_before = before;
+  out.validation_nrmse_after = kNaN;
+  out.relative_gain = kNaN;
+  out.aic = out.bic = kNaN;
+  try {
+    const auto started = std::chrono::steady_clock::now();
+    // The option the screening chose (Candidate::option_grids), in the declarative form too.
+    std::string option;
+    const std::string option_prefix = c.instance + " option ";
+    for (const auto& [key, value] : screened.shape_start) {
+      if (key.rfind(option_prefix, 0) != 0) continue;
+      option = key.substr(option_prefix.size());
+      out.candidate.augmentation.options.numbers[option] = {value};
+    }
+    est::Problem aug = AugmentedProblem(problem, nominal, c, false);
+    est::FitOptions fo;
+    fo.max_solve_seconds = max_seconds;
+    auto session =
+        std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
+    // The budget spread over the solves: each may iterate for what is left; false once spent.
+    auto elapsed = [&started]() {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    };
+    auto budget_left = [&]() {
+      if (!(max_seconds > 0.0)) return true;
+      const double left = max_seconds - elapsed();
+      if (!(left > 0.0)) return false;
+      session->SetMaxSolveSeconds(left);
+      return true;
+    };
+    // Wall time of the re-fit's solves and of the solver inside them (FitResult::seconds "solve"),
+    // reported in RefitResult::stages: the difference is formulation, covariance and evaluation.
+    double solve_wall = 0.0, solver_seconds = 0.0;
+    int solves = 0;
+    auto timed_solve = [&](const est::FitResult* start) {
+      const auto t0 = std::chrono::steady_clock::now();
+      est::FitResult r = session->Solve(start);
+      solve_wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      for (const auto& [what, seconds] : r.seconds) {
+        if (what == "solve") solver_seconds += seconds;
+      }
+      ++solves;
+      return r;
+    };
+    std::vector<double> neutral;
+    neutral.assign(c.screened.size(), 0.0);
+    for (std::size_t i = 0; i < c.screened.size(); ++i) {
+      for (const models::ModelParameter& p : aug.built.parameters) {
+        if (p.name == c.screened[i]) neutral[i] = p.value;
+      }
+    }
+    bool started_one_step = false;
+    if (screened.one_step.size() == c.screened.size()) {
+      for (std::size_t i = 0; i < c.screened.size(); ++i) {
+        const double v = screened.one_step[i];
+        if (!std::isfinite(v)) continue;
+        for (const models::ModelParameter& p : aug.built.parameters) {
+          if (p.name != c.screened[i]) continue;
+          session->SetParameterValue(p.name, std::min(std::max(v, p.lower), p.upper));
+          started_one_step = true;
+        }
+      }
+    }
+    budget_left();
+    est::FitResult a = timed_solve(nullptr);
+    if (started_one_step && !a.IsSolutionUsable() && budget_left()) {
+      for (std::size_t i = 0; i < c.screened.size(); ++i) {
+        session->SetParameterValue(c.screened[i], neutral[i]);
+      }
+      a = timed_solve(nullptr);
+      out.stages.push_back("from the one-step estimate: " + a.solver_result.status +
+                           "; restarted from the neutral values");
+    }
+    // The profile over each shape grid: stage A at every other grid value (a fixed value
+    // changes, so each solve is warm-started from the best so far), the lowest cost kept.
+    // A grid value's solve replaces the best so far when it converged and validates better (or
+    // the best so far did not converge, or does not simulate on the validation splits).
+    auto validates_better = [&role](const est::FitResult& trial, const est::FitResult& best) {
+      if (!trial.IsSolutionUsable() || !trial.solver_result.success) return false;
+      if (!best.solver_result.success) return true;
+      const double t = ValidationNrmse(trial.evaluations, role);
+      const double b = ValidationNrmse(best.evaluations, role);
+      if (!std::isfinite(t)) return false;
+      return !std::isfinite(b) || t < b;
+    };
+    for (const auto& [shape, values] : screened.shape_grid_values) {
+      if (!a.IsSolutionUsable()) break;
+      double best_value = a.Parameter(shape).value;
+      const double first = best_value;
+      std::size_t tried = 1;
+      for (const double v : values) {
+        if (v == first) continue;
+        if (!budget_left()) break;
+        ++tried;
+        session->SetParameterValue(shape, v);
+        est::FitResult trial = timed_solve(&a);
+        if (validates_better(trial, a)) {
+          a = std::move(trial);
+          best_value = v;
+        }
+      }
+      session->SetParameterValue(shape, best_value);
+      char line[160];
+      std::snprintf(line, sizeof(line),
+                    "%s profiled over %zu of %zu grid values%s: %.4g (score's %.4g)", shape.c_str(),
+                    tried, values.size(),
+                    tried < values.size() ? " (the re-fit's budget spent)" : "", best_value, first);
+      out.stages.push_back(line);
+    }
+    // The profile over the option grid: the option is structure, so each other value is a new
+    // session, started from the best fit's parameter values; the converged solve of lowest
+    // validation NRMSE is kept with its session, as for the shape grids (the score picks the
+    // option poorly: a Coulomb level's softest sign scored highest on a pendulum whose truth
+    // had a hard one, and validated 20 times worse than the steepest).
+    if (!option.empty() && c.apply_with_option && screened.option_grid_values.size() > 1 &&
+        a.IsSolutionUsable()) {
+      const double first = out.candidate.augmentation.options.numbers[option].front();
+      double best_value = first;
+      std::size_t tried = 1;
+      for (const double v : screened.option_grid_values) {
+        if (v == first) continue;
+        if (!budget_left()) break;
+        ++tried;
+        Candidate variant = c;
+        const auto apply_with_option = c.apply_with_option;
+        variant.apply = [apply_with_option, v](models::Model* m) { apply_with_option(m, v); };
+        est::Problem variant_problem = AugmentedProblem(problem, nominal, variant, false);
+        auto variant_session = std::make_unique<est::FitSession>(
+            variant_problem, AugmentedSplits(splits, variant_problem.built.NumStates()), fo);
+        for (const est::FitParameter& p : a.parameters) {
+          variant_session->SetParameterValue(p.name, p.value);
+        }
+        std::swap(session, variant_session);
+        budget_left();
+        est::FitResult trial = timed_solve(nullptr);
+        if (validates_better(trial, a)) {
+          a = std::move(trial);
+          best_value = v;
+          aug = std::move(variant_problem);
+          out.candidate.apply = variant.apply;
+          out.candidate.augmentation.options.numbers[option] = {v};
+        } else {
+          std::swap(session, variant_session);
+        }
+      }
+      char line[200];
+      std::snprintf(
+          line, sizeof(line),
+          "option %s profiled over %zu of %zu grid values%s: %.4g (score's %.4g)", option.c_str(),
+          tried, screened.option_grid_values.size(),
+          tried < screened.option_grid_values.size() ? " (the re-fit's budget spent)" : "",
+          best_value, first);
+      out.stages.push_back(line);
+    }
+    out.fit = std::move(a);
+    std::vector<std::string> shapes;
+    for (const auto& q : c.refit) {
+      if (std::find(c.screened.begin(), c.screened.end(), q) == c.screened.end()) {
+        shapes.push_back(q);
+      }
+    }
+    if (!shapes.empty() && out.fit.IsSolutionUsable() && !budget_left()) {
+      out.stages.push_back(
+          "shape parameters held (at the nominal or profiled values): the "
+          "re-fit's budget was spent");
+    } else if (!shapes.empty() && out.fit.IsSolutionUsable()) {
+      for (const auto& q : shapes) session->FreeParameter(q);
+      est::FitResult b = timed_solve(&out.fit);
+      std::string held;
+      if (!b.IsSolutionUsable() || !b.solver_result.success) {
+        held = "the re-fit with them free stopped with " + b.solver_result.status;
+      } else if (b.solver_result.cost > out.fit.solver_result.cost * (1.0 + 1e-6)) {
+        char line[200];
+        std::snprintf(line, sizeof(line),
+                      "the re-fit with them free ended at a higher cost (%.6g > %.6g, %s after "
+                      "%d iterations)",
+                      b.solver_result.cost, out.fit.solver_result.cost,
+                      b.solver_result.status.c_str(), b.solver_result.iterations);
+        held = line;
+      } else {
+        for (const auto& q : shapes) {
+          if (b.Parameter(q).at_bound && held.empty()) {
+            held = "the re-fit with them free put " + q + " at a bound";
+          }
+        }
+      }
+      const double a_validation = ValidationNrmse(out.fit.evaluations, role);
+      const double b_validation = ValidationNrmse(b.evaluations, role);
+      if (held.empty() && !(b_validation <= a_validation)) {
+        char line[200];
+        std::snprintf(line, sizeof(line),
+                      "with them free the validation NRMSE is higher (%.4g > %.4g): the freed "
+                      "shape fits the estimation data only",
+                      b_validation, a_validation);
+        held = line;
+      }
+      if (held.empty()) {
+        out.fit = std::move(b);
+        out.stages.push_back("shape parameters freed");
+      } else {
+        out.stages.push_back("shape parameters held (at the nominal or profiled values): " + held);
+      }
+    }
+    {
+      char line[200];
+      std::snprintf(line, sizeof(line),
+                    "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far", solves,
+                    solve_wall, solver_seconds, elapsed());
+      out.stages.push_back(line);
+    }
+    for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
+    for (const auto& q : c.refit) {
+      const est::FitParameter& p = out.fit.Parameter(q);
+      const bool family_end =
+          std::find(c.family_ends.begin(), c.family_ends.end(), q) != c.family_ends.end();
+      out.at_bound = out.at_bound || (p.free && p.at_bound && !family_end);
+    }
+    InformationCriteria(out.fit, &out.aic, &out.bic);
+    out.validation_nrmse_after = ValidationNrmse(out.fit.evaluations, role);
+    if (!out.fit.IsSolutionUsable()) {
+      out.failure = "solver: " + out.fit.solver_result.status + " " + out.fit.solver_result.message;
+    } else if (!out.fit.solver_result.success) {
+      out.failure = "the solver stopped before converging (" + out.fit.solver_result.status +
+                    " after " + std::to_string(out.fit.solver_result.iterations) + " iterations)";
+    } else if (!std::isfinite(out.validation_nrmse_after)) {
+      out.failure = "the validation simulation did not finish";
+    } else {
+      out.failure = IntegrationCheck(aug, splits, out.fit, role, out.validation_nrmse_after);
+      out.ok = out.failure.empty();
+      if (out.ok) out.relative_gain = (before - out.validation_nrmse_after) / before;
+    }
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+  }
+  return out;
+}
+
+}  // namespace graybox::diagnosis::internal

@@ -64,6 +64,7 @@ WithheldRecord Run(const WithheldCase& c, const diagnosis::DiagnoseOptions& opti
       }
     }
     r.explained = d.explained;
+    r.structured_remaining = d.structured_remaining;
     r.verdict = d.verdict;
     r.diagnosis_json = diagnosis::DiagnosisJson(d, {{"case", c.name}});
     r.nominal_validation_nrmse = d.nominal_validation_nrmse;
@@ -212,8 +213,11 @@ std::string WithheldBench::Summary() const {
     std::string accepted;
     for (const std::string& a : r.accepted) accepted += (accepted.empty() ? "" : ",") + a;
     std::snprintf(
-        line, sizeof(line), "  %-40s %-4s top %-20s accepted [%s] shrinkage error %s\n",
+        line, sizeof(line),
+        "  %-40s %-4s top %-20s accepted [%s] %s (structure left %s) shrinkage error %s\n",
         r.name.c_str(), r.pass ? "pass" : "FAIL", r.top.c_str(), accepted.c_str(),
+        r.explained ? "explained" : "not explained",
+        std::isfinite(r.structured_remaining) ? Fmt("%.2f", r.structured_remaining).c_str() : "n/a",
         std::isfinite(r.shrinkage_error) ? Fmt("%.2f", r.shrinkage_error).c_str() : "n/a");
     o << line;
   }
@@ -253,6 +257,7 @@ std::string WithheldBenchJson(const WithheldBench& b,
     x["top_alternatives"] = r.top_alternatives;
     x["named_or_equivalent"] = r.named_or_equivalent;
     x["explained"] = r.explained;
+    x["structured_remaining"] = r.structured_remaining;
     x["pass"] = r.pass;
     x["nominal_validation_nrmse"] = r.nominal_validation_nrmse;
     x["final_validation_nrmse"] = r.final_validation_nrmse;

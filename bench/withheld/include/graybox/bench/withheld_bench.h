@@ -16,7 +16,8 @@
 //                     (AcceptedEffect::alternatives, effect names only)
 //   named_or_equivalent  one library effect withheld, and it is the top or one of its
 //                     alternatives (the same signature on these data)
-//   explained  DiagnosisReport::explained
+//   explained  DiagnosisReport::explained; structured_remaining its DiagnosisReport::
+//              structured_remaining (the share of the residual's structured energy left)
 //   nominal_validation_nrmse, final_validation_nrmse, reference_validation_nrmse, oracle
 //   shrinkage            e_nominal - e_final, what the diagnosis says the accepted effects bring
 //   achievable_shrinkage e_nominal - e_oracle: the oracle is the truth structure at its true
@@ -75,6 +76,7 @@ struct WithheldRecord {
   std::vector<std::string> top_alternatives;
   bool named_or_equivalent = false;
   bool explained = false;
+  double structured_remaining = 1.0;
   double nominal_validation_nrmse = 0.0, final_validation_nrmse = 0.0;
   double reference_validation_nrmse = 0.0, oracle_validation_nrmse = 0.0;
   double shrinkage = 0.0, achievable_shrinkage = 0.0, shrinkage_error = 0.0;

@@ -323,6 +323,18 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
         is_payload ? std::vector<std::string>{axis.position} : std::vector<std::string>{};
     const bool motor_feedback = is_elastic && var.detail.find("feedback") != std::string::npos;
     if (motor_feedback) c.attachment += ", controller " + Join(controllers) + " on q + e";
+    if (!motor_feedback) {
+      c.augmentation = {models::Augmentation::Kind::kForReaders,
+                        c.instance,
+                        var.type,
+                        options(mass_now),
+                        {},
+                        {},
+                        axis.force,
+                        {body.instance},
+                        extra};
+      c.options_from_parameters = {{"axis_inertia", body.mass}};
+    }
     const std::string position = axis.position;
     const std::string unit = prismatic ? "m" : "rad";
     c.apply = [options, instance, force, reader, mass, type, extra, held, motor_feedback, position,
@@ -368,6 +380,15 @@ void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool po
           models::BlockRegistry::Global().Create(models::kChamberLeak));
       const std::vector<std::string> held = SplitParameters(*block, &c);
       const std::string instance = c.instance;
+      c.augmentation = {models::Augmentation::Kind::kAdd,
+                        c.instance,
+                        models::kChamberLeak,
+                        {},
+                        {pressure},
+                        {"-" + mdot},
+                        "",
+                        {},
+                        {}};
       c.apply = [block, instance, pressure, mdot, held](models::Model* m) {
         m->Augment(instance, block, {pressure}, {"-" + mdot});
         for (const auto& q : held) m->Fix(q);
@@ -384,6 +405,18 @@ void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool po
       const auto block = models::BlockRegistry::Global().Create(models::kPolytropicCorrection);
       const std::vector<std::string> held = SplitParameters(*block, &c);
       const std::string instance = c.instance, chamber = b.instance, rate = b.inputs[2];
+      BlockOptions now;
+      now.numbers["temperature"] = {built.parameters[built.ParameterIndex(temperature)].value};
+      c.augmentation = {models::Augmentation::Kind::kForReaders,
+                        c.instance,
+                        models::kPolytropicCorrection,
+                        now,
+                        {},
+                        {},
+                        mdot,
+                        {chamber},
+                        {pressure, rate}};
+      c.options_from_parameters = {{"temperature", temperature}};
       c.apply = [instance, chamber, pressure, mdot, rate, temperature, held](models::Model* m) {
         // The chamber's temperature as the model has it now. The gas constant is the chamber
         // block's option, which the model does not expose: air, the chamber's default.
@@ -429,6 +462,17 @@ void AddBacklash(const estimators::Problem& problem, std::set<std::string>* take
                 built.parameters[built.ParameterIndex(joint + ".d")].value));
     const std::vector<std::string> held = SplitParameters(*block, &c);
     const std::string instance = c.instance;
+    c.augmentation = {models::Augmentation::Kind::kAdd,
+                      c.instance,
+                      models::kBacklashCorrection,
+                      options(built.parameters[built.ParameterIndex(joint + ".Ke")].value,
+                              built.parameters[built.ParameterIndex(joint + ".d")].value),
+                      {joint + ".q_m", joint + ".q_l", joint + ".qd_m", joint + ".qd_l"},
+                      {"-" + motor, load},
+                      "",
+                      {},
+                      {}};
+    c.options_from_parameters = {{"stiffness", joint + ".Ke"}, {"damping", joint + ".d"}};
     c.apply = [options, instance, joint, motor, load, held](models::Model* m) {
       // The joint's stiffness and damping as the model has them now (transmission_effects.h).
       const auto blk = std::shared_ptr<const models::Block>(models::BlockRegistry::Global().Create(

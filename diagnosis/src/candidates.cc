@@ -97,6 +97,22 @@ void CheckDiagnosisSpec(const estimators::Problem& problem) {
   }
 }
 
+models::Augmentation AugmentationFor(const Candidate& candidate, const models::Model& model) {
+  models::Augmentation a = candidate.augmentation;
+  for (const auto& [option, parameter] : candidate.options_from_parameters) {
+    const auto& ps = model.parameters();
+    const auto it = std::find_if(
+        ps.begin(), ps.end(), [&](const models::ModelParameter& p) { return p.name == parameter; });
+    if (it == ps.end()) {
+      throw std::invalid_argument("AugmentationFor: candidate '" + candidate.instance +
+                                  "' takes option '" + option + "' from parameter '" + parameter +
+                                  "', which the model does not have");
+    }
+    a.options.numbers[option] = {it->value};
+  }
+  return a;
+}
+
 std::string Candidate::Name() const { return effect + " (" + detail + ") on " + attachment; }
 
 void CandidateOptions::Validate() const {

@@ -9,6 +9,7 @@
 #include <functional>
 #include <iostream>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "graybox/diagnosis/screening.h"
 #include "graybox/estimators/fit/fit.h"
 #include "graybox/estimators/problem/problem_file.h"
+#include "graybox/models/augmentation.h"
 #include "graybox/models/model.h"
 
 namespace graybox::diagnosis {
@@ -475,6 +477,75 @@ TEST(Candidates, BacklashOnJointsWithoutOne) {
 
 // Every candidate of every effect on the repository's problem files: applies, builds, and is
 // neutral (the files are parsed only; no data are read).
+// The declarative form (Candidate::augmentation, with AugmentationFor's options) added by
+// ApplyAugmentation gives the same model as apply(): the same states, parameters and, away from
+// the neutral values, the same dynamics and outputs. Every candidate but the elasticity variant
+// that moves the controller's feedback has one.
+void ExpectDeclarativeFormMatches(const models::Model& nominal,
+                                  const std::vector<Candidate>& candidates) {
+  std::mt19937 rng(Seed());
+  for (const auto& c : candidates) {
+    if (c.augmentation.type.empty()) {
+      EXPECT_EQ(c.effect, "elasticity") << c.Name();
+      EXPECT_NE(c.detail.find("feedback"), std::string::npos) << c.Name();
+      continue;
+    }
+    models::Model a = nominal, b = nominal;
+    // Another inertia, stiffness or temperature than at enumeration: the options follow it.
+    for (const auto& [option, parameter] : c.options_from_parameters) {
+      a.Parameter(parameter).value *= 1.3;
+      b.Parameter(parameter).value *= 1.3;
+    }
+    c.apply(&a);
+    models::ApplyAugmentation(&b, AugmentationFor(c, b));
+    const models::StateSpaceModel ma = a.Build(), mb = b.Build();
+    ASSERT_EQ(ma.NumStates(), mb.NumStates()) << c.Name();
+    ASSERT_EQ(ma.NumParameters(), mb.NumParameters()) << c.Name();
+    Eigen::VectorXd p = ma.ParameterValues();
+    for (int i = 0; i < ma.NumParameters(); ++i) {
+      ASSERT_EQ(ma.parameters[i].name, mb.parameters[i].name) << c.Name();
+      // The candidate's own parameters away from neutral, inside their bounds.
+      if (ma.parameters[i].name.rfind(c.instance + ".", 0) == 0) {
+        const double step = 0.05 * (1.0 + std::fabs(p[i]));
+        p[i] = std::min(p[i] + step, 0.5 * (p[i] + ma.parameters[i].upper));
+      }
+    }
+    Eigen::VectorXd x(ma.NumStates()), u(ma.NumInputs());
+    for (int i = 0; i < ma.NumStates(); ++i) {
+      x[i] = std::uniform_real_distribution<double>(ma.states[i].typical_min,
+                                                    ma.states[i].typical_max)(rng);
+    }
+    for (int i = 0; i < ma.NumInputs(); ++i) {
+      u[i] = std::uniform_real_distribution<double>(ma.inputs[i].typical_min,
+                                                    ma.inputs[i].typical_max)(rng);
+    }
+    const Eigen::VectorXd da = ma.dynamics({x, u, p})[0], db = mb.dynamics({x, u, p})[0];
+    const Eigen::VectorXd ya = ma.output({x, u, p})[0], yb = mb.output({x, u, p})[0];
+    EXPECT_LE((da - db).lpNorm<Eigen::Infinity>(),
+              kNeutralTolerance * std::max(1.0, da.lpNorm<Eigen::Infinity>()))
+        << c.Name();
+    EXPECT_LE((ya - yb).lpNorm<Eigen::Infinity>(),
+              kNeutralTolerance * std::max(1.0, ya.lpNorm<Eigen::Infinity>()))
+        << c.Name();
+  }
+}
+
+TEST(Candidates, DeclarativeFormAddsWhatApplyAdds) {
+  models::Model fixed = CommandSlide();
+  fixed.Fix("cart.mass");
+  std::set<std::string> effects;
+  for (const models::Model& m : {fixed, Arm(false), Arm(true), ClosedLoop(), Chamber(true),
+                                 ElasticJoint(false), ForceSlide()}) {
+    SCOPED_TRACE(m.name());
+    const std::vector<Candidate> cs = Enumerate(m, AllEffects());
+    ExpectDeclarativeFormMatches(m, cs);
+    for (const auto& c : cs) effects.insert(c.effect);
+  }
+  // Every effect these models carry was compared (pneumatic ones on the chamber, backlash on the
+  // elastic joint, the loads on the arm and the slide).
+  for (const std::string& e : AllEffects()) EXPECT_TRUE(effects.count(e)) << e;
+}
+
 TEST(Candidates, EveryEffectOnTheProblemFiles) {
   for (const char* file :
        {"problems/emps/emps_closed_loop.toml", "problems/emps/emps_idim.toml",

@@ -334,10 +334,15 @@ struct Candidate {
   /// test (`screened` is empty); it is re-fitted in every round instead (screening.h).
   bool structural = false;
   /// The candidate as a problem file states it (a [[model.augment]] table; the parameters outside
-  /// `refit` are fixed): friction, ripple, input_delay, deadzone and sensor candidates; an empty
-  /// type for the others (loads, backlash, chamber effects, elasticity), whose options are read
-  /// from the model when applied. A chosen option (CandidateScore::shape_start) is not in it.
+  /// `refit` are fixed): every candidate but the elasticity variant that also moves the
+  /// controller's feedback to the motor side (three blocks; empty type). A chosen option
+  /// (CandidateScore::shape_start) is not in it. Options that apply() reads from the model's
+  /// parameters (a load's axis_inertia, backlash's stiffness and damping, the polytropic
+  /// correction's temperature) hold the values at enumeration; AugmentationFor gives them for
+  /// another model (the re-fit's start).
   models::Augmentation augmentation;
+  /// Those options: (option, qualified parameter whose value it takes).
+  std::vector<std::pair<std::string, std::string>> options_from_parameters;
   /// "<effect> (<detail>) on <attachment>".
   std::string Name() const;
 };
@@ -358,6 +363,10 @@ struct CandidateOptions {
   /// that is not finite and > 0.
   void Validate() const;
 };
+
+/// `candidate.augmentation` with its options_from_parameters read from `model` (what apply() adds
+/// to `model`, as data). Throws std::invalid_argument for a parameter `model` does not have.
+models::Augmentation AugmentationFor(const Candidate& candidate, const models::Model& model);
 
 /// Every effect this layer can propose, in enumeration order: per axis the friction family,
 /// input_delay, deadzone, ripple, rotor_inertia, payload, elasticity; per chamber leakage,

@@ -13,6 +13,7 @@ void RegisterBuiltinBlocks(BlockRegistry& registry) {
   RegisterLoadBlocks(registry);
   RegisterChamberEffectBlocks(registry);
   RegisterTransmissionEffectBlocks(registry);
+  RegisterEquationBlocks(registry);
 }
 
 }  // namespace graybox::models::internal

@@ -17,6 +17,7 @@ void RegisterMechanicsBlocks(BlockRegistry& registry);      // src/mechanics_blo
 void RegisterSensorBlocks(BlockRegistry& registry);         // src/sensor_blocks.cc
 void RegisterLoadBlocks(BlockRegistry& registry);           // src/load_blocks.cc
 void RegisterChamberEffectBlocks(BlockRegistry& registry);  // src/chamber_effect_blocks.cc
+void RegisterEquationBlocks(BlockRegistry& registry);       // src/equation_block.cc
 void RegisterTransmissionEffectBlocks(
     BlockRegistry& registry);  // src/transmission_effect_blocks.cc
 

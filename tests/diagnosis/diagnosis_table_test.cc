@@ -153,6 +153,50 @@ TEST(DiagnosisTable, GenericBlocksHaveNoAxisUntilOneIsNamed) {
   }
 }
 
+// An equation block (models/equation_block.h) that declares the roles of its signals is an axis
+// from metadata, like a registered mechanical block; without roles it needs [diagnosis] axes.
+TEST(DiagnosisTable, AnEquationBlockWithRolesIsAnAxisFromMetadata) {
+  auto text = [](const std::string& roles) {
+    return "[model]\n"
+           "inputs = [{ name = \"force\", unit = \"N\", min = -5.0, max = 5.0 }]\n"
+           "outputs = [\"slide.v\"]\n"
+           "[[model.blocks]]\n"
+           "instance = \"slide\"\n"
+           "type = \"equations\"\n"
+           "inputs = [\"force\"]\n"
+           "[model.blocks.equations]\n"
+           "inputs = [{ name = \"f\", unit = \"N\"" +
+           roles +
+           " }]\n"
+           "states = [{ name = \"q\", unit = \"m\", derivative = \"v\" },\n"
+           "          { name = \"v\", unit = \"m/s\", derivative = \"(f - c * v) / m\"" +
+           (roles.empty() ? std::string() : ", role = \"velocity\"") +
+           " }]\n"
+           "parameters = [{ name = \"m\", unit = \"kg\", nominal = 2.0, lower = 0.1, upper = "
+           "10.0 },\n"
+           "              { name = \"c\", unit = \"N s/m\", nominal = 3.0, lower = 0.0, upper = "
+           "100.0 }]\n"
+           "[[data]]\n"
+           "file = \"x.csv\"\n"
+           "time = \"t\"\n"
+           "inputs = { force = \"f\" }\n"
+           "outputs = { \"slide.v\" = \"v\" }\n"
+           "[estimation]\n"
+           "method = \"multiple_shooting\"\n";
+  };
+  EXPECT_TRUE(FindAxes(est::ParseProblem(text(""), kPath)).empty());
+  const est::Problem p = est::ParseProblem(text(", role = \"force\""), kPath);
+  const std::vector<MechanicalAxis> axes = FindAxes(p);
+  ASSERT_EQ(axes.size(), 1u);
+  EXPECT_EQ(axes[0].velocity, "slide.v");
+  EXPECT_EQ(axes[0].force, "force");
+  EXPECT_EQ(axes[0].connection, "-force");
+  EXPECT_EQ(axes[0].position, "slide.q");  // in m, its derivative is v: found without a role
+  const std::vector<Candidate> cs = EnumerateCandidates(p, CandidateOptions{{"coulomb"}});
+  ASSERT_EQ(cs.size(), 1u);
+  EXPECT_EQ(cs[0].attachment, "velocity slide.v -> force force");
+}
+
 TEST(DiagnosisTable, SelectsEffectsSensorsAndActuators) {
   const est::Problem p =
       est::ParseProblem(GenericSlide("[diagnosis]\n"

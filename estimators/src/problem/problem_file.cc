@@ -15,6 +15,7 @@
 
 #include "graybox/models/augmentation.h"
 #include "graybox/models/block.h"
+#include "graybox/models/equation_block.h"
 #include "problem/problem_file_internal.h"
 
 namespace graybox::estimators {
@@ -311,12 +312,18 @@ void ParseModel(const Section& root, Problem* problem) {
   const auto blocks = m.SubArray("blocks");
   if (blocks.empty()) m.Fail("", "missing [[model.blocks]]: expected at least one block");
   for (const Section& b : blocks) {
-    b.Allow({"instance", "type", "options", "inputs", "outputs"});
-    const std::string instance = b.RequiredString("instance");
     const std::string type = b.RequiredString("type");
+    const bool equations = type == models::kEquationBlock;
+    if (equations) {
+      b.Allow({"instance", "type", "equations", "inputs", "outputs"});
+    } else {
+      b.Allow({"instance", "type", "options", "inputs", "outputs"});
+    }
+    const std::string instance = b.RequiredString("instance");
     models::BlockOptions options;
     if (auto o = b.Sub("options")) options = ParseBlockOptions(*o);
-    const std::shared_ptr<const models::Block> block = CreateBlock(b, type, options);
+    const std::shared_ptr<const models::Block> block =
+        equations ? EquationBlock(b) : CreateBlock(b, type, options);
     const std::vector<std::string> inputs = b.Strings("inputs");
     const std::vector<std::string> outputs = b.Strings("outputs");
     try {

@@ -1,6 +1,6 @@
 // Private to the problem-file parser (problem_file.cc: [problem], [model], entry points;
 // problem_data.cc: [[data]] and the data loading; problem_estimation.cc: [estimation], [metrics];
-// problem_diagnosis.cc: [diagnosis]):
+// problem_diagnosis.cc: [diagnosis]; problem_equations.cc: equation blocks):
 // the TOML section reader with located messages, and shared formatting helpers.
 #pragma once
 
@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -215,6 +216,9 @@ void ParseModel(const Section& root, Problem* problem);
 void ParseData(const Section& root, Problem* problem);
 void ParseEstimation(const Section& root, Problem* problem);
 void ParseMetrics(const Section& root, Problem* problem);
+/// The block of a [[model.blocks]] entry of type "equations", from its `equations` table
+/// (problem_equations.cc); its defects as ProblemFileError at their place.
+std::shared_ptr<const models::Block> EquationBlock(const Section& block);
 /// [diagnosis] (problem_diagnosis.cc).
 void ParseDiagnosis(const Section& root, Problem* problem);
 

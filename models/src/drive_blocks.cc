@@ -17,7 +17,7 @@ namespace {
 class TwoMassDrive : public BlockBase<TwoMassDrive> {
  public:
   explicit TwoMassDrive(const BlockOptions& options) {
-    CheckOptionKeys(kTwoMassDrive, options, {"backlash", "smoothing"});
+    CheckOptionKeys(kTwoMassDrive, options, {"backlash", "smoothing", "motion"});
     backlash_ = FlagOption(kTwoMassDrive, options, "backlash", false);
     if (!backlash_ && HasNumber(options, "smoothing")) {
       throw std::invalid_argument("block '" + std::string(kTwoMassDrive) +
@@ -55,6 +55,7 @@ class TwoMassDrive : public BlockBase<TwoMassDrive> {
       info_.parameters.push_back(
           MakeParameter("b", "rad", "backlash: half width of the dead zone", 2e-3, 0.0, 0.5, 0.0));
     }
+    ApplyMotionUnits(kTwoMassDrive, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {

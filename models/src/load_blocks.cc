@@ -164,6 +164,78 @@ class ElasticCoupling : public BlockBase<ElasticCoupling> {
   double axis_inertia_ = 1.0;
 };
 
+// ---- mechanics.spring_damper --------------------------------------------------------------------
+class SpringDamper : public BlockBase<SpringDamper> {
+ public:
+  explicit SpringDamper(const BlockOptions& options) {
+    CheckOptionKeys(kSpringDamper, options, {"motion"});
+    info_.type = kSpringDamper;
+    info_.description =
+        "Spring and damper between two positions: F = k (q_a - q_b) + c (qd_a - qd_b), F on end b, "
+        "-F on end a.";
+    info_.reference = "Hooke's law with linear damping (loads.h)";
+    info_.inputs = {{"q_a", "rad", "position of end a", -1.0, 1.0, SignalRole::kPosition},
+                    {"q_b", "rad", "position of end b", -1.0, 1.0, SignalRole::kPosition},
+                    {"qd_a", "rad/s", "speed of end a", -10.0, 10.0, SignalRole::kVelocity},
+                    {"qd_b", "rad/s", "speed of end b", -10.0, 10.0, SignalRole::kVelocity}};
+    info_.outputs = {NetForce("F_b", "force on end b (towards a when stretched)"),
+                     NetForce("F_a", "force on end a (equal and opposite)")};
+    info_.parameters = {MakeParameter("k", "N m/rad", "stiffness", 1.0, 0.0, kInf, 0.0),
+                        MakeParameter("c", "N m s/rad", "damping", 0.0, 0.0, kInf, 0.0)};
+    ApplyMotionUnits(kSpringDamper, options, &info_);
+  }
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    const Scalar f = a.p[0] * (a.u[0] - a.u[1]) + a.p[1] * (a.u[2] - a.u[3]);
+    a.y[0] = f;
+    a.y[1] = -f;
+  }
+};
+
+// ---- mechanics.gravity --------------------------------------------------------------------------
+class GravityLoad : public BlockBase<GravityLoad> {
+ public:
+  explicit GravityLoad(const BlockOptions& options) {
+    CheckOptionKeys(kGravityLoad, options, {"motion", "gravity"});
+    prismatic_ = IsPrismatic(kGravityLoad, options);
+    if (!prismatic_ && HasNumber(options, "gravity")) {
+      throw std::invalid_argument("block '" + std::string(kGravityLoad) +
+                                  "': option 'gravity' applies to motion = \"prismatic\" only");
+    }
+    gravity_ = PositiveOption(kGravityLoad, options, "gravity", kStandardGravity);
+    info_.type = kGravityLoad;
+    info_.reference = "the weight of a body on its axis (loads.h)";
+    if (prismatic_) {
+      info_.description = "Gravity load on a vertical prismatic axis: F_g = m g.";
+      info_.inputs = {{"q", "m", "axis position (not used)", -1.0, 1.0, SignalRole::kPosition}};
+      SignalInfo f = NetForce("F_g", "weight of the moving mass along the axis");
+      f.unit = "N";
+      info_.outputs = {f};
+      info_.parameters = {MakeParameter("m", "kg", "moving mass", 1.0, 0.0, kInf, 0.0)};
+    } else {
+      info_.description = "Gravity load on a rotary axis: tau_g = mgl sin(q - q_down).";
+      info_.inputs = {{"q", "rad", "axis angle", -kPi, kPi, SignalRole::kPosition}};
+      info_.outputs = {NetForce("tau_g", "gravity torque, pulling towards q_down")};
+      info_.parameters = {
+          MakeParameter("mgl", "N m", "m g l of the centre of mass", 1.0, -kInf, kInf, 0.0),
+          MakeParameter("q_down", "rad", "angle of the hanging position", 0.0, -kPi, kPi)};
+    }
+  }
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    using std::sin;
+    if (prismatic_) {
+      a.y[0] = a.p[0] * gravity_;
+    } else {
+      a.y[0] = a.p[0] * sin(a.u[0] - a.p[1]);
+    }
+  }
+
+ private:
+  bool prismatic_ = false;
+  double gravity_ = kStandardGravity;
+};
+
 template <typename T>
 BlockFactory Factory() {
   return [](const BlockOptions& options) -> std::unique_ptr<Block> {
@@ -179,6 +251,8 @@ void RegisterLoadBlocks(BlockRegistry& registry) {
   registry.Register(kAddedInertia, Factory<AddedInertia>(), test);
   registry.Register(kPayload, Factory<Payload>(), test);
   registry.Register(kElasticCoupling, Factory<ElasticCoupling>(), test);
+  registry.Register(kSpringDamper, Factory<SpringDamper>());
+  registry.Register(kGravityLoad, Factory<GravityLoad>());
 }
 
 }  // namespace graybox::models::internal

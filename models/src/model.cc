@@ -477,7 +477,8 @@ StateSpaceModel Model::Build() const {
   }
   const std::vector<std::string> known = Signals();
   auto check_known = [&](const std::string& s, const std::string& where) {
-    if (contributions.count(s) || producers.count(s)) return;
+    // "" is an unconnected block input: it reads 0 (AddBlock).
+    if (s.empty() || contributions.count(s) || producers.count(s)) return;
     throw std::invalid_argument("model '" + name_ + "': " + where + " reads signal '" + s +
                                 "', which no input, state or block output provides" +
                                 Suggest(s, known));
@@ -495,7 +496,12 @@ StateSpaceModel Model::Build() const {
       for (int j : it->second) waits_for[i].insert(j);
     }
   }
-  for (const auto& out : outputs_) check_known(out, "output");
+  for (const auto& out : outputs_) {
+    if (out.empty()) {
+      throw std::invalid_argument("model '" + name_ + "': an output names no signal");
+    }
+    check_known(out, "output");
+  }
   std::vector<int> order;
   std::vector<bool> done(n, false);
   while (static_cast<int>(order.size()) < n) {

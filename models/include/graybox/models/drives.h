@@ -40,6 +40,8 @@
 //   and then tau_s = Ke DZ(delta) + d DZ'(delta) d(delta)/dt with the smooth dead zone DZ of
 //   drive.backlash (the damper acts on the rate of the effective deflection, so no torque passes
 //   inside the gap); option "smoothing" eps [rad] (default 1e-4, only with backlash).
+//   option "motion" = "rotational" (default) | "prismatic": a linear elastic drive (a belt or a
+//   series elastic slide) in m, m/s, N, kg, N/m, N s/m; the equations are the same.
 //   Linearised (d = 0, no backlash) the modes are a rigid-body pair at 0 and an oscillation at
 //   omega_n = sqrt(Ke (1/J + 1/I)) = 301 rad/s (47.9 Hz) at the nominal values; J qd_m + I qd_l
 //   is conserved when tau_m = tau_ext = 0. The block has no neutral configuration: the rigid

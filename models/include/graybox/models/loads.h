@@ -106,6 +106,30 @@
 //   n >= 12.6 f T_s. Example: 1 kHz data and f0 = 20 Hz need one step (omega h = 0.13); f0 =
 //   200 Hz needs n = 3. stiff = false: the mode is a light oscillation to resolve, not a fast
 //   decay an implicit method could step over; pick f0 and n (or CVODES) accordingly.
+//
+// ---- Force elements between signals (plants, not candidates) ----------------------------------
+// "mechanics.spring_damper"  (a spring and a damper between two positions)
+//     F = k (q_a - q_b) + c (qd_a - qd_b)
+//   inputs  q_a, q_b [rad] (-1, 1), qd_a, qd_b [rad/s] (-10, 10) the two ends' positions and
+//           speeds (q_b = "" for a spring to ground: an unconnected input reads 0, Model::AddBlock)
+//   outputs F_b [N m] (-10, 10) = +F, the force on end b (towards a when stretched);
+//           F_a [N m] (-10, 10) = -F, the force on end a. Wire "F_b" to b's force signal and
+//           "F_a" to a's (each with "+"): equal and opposite.
+//   k [N m/rad]    1 (0, inf)  neutral 0   stiffness
+//   c [N m s/rad]  0 (0, inf)  neutral 0   damping
+//   option "motion" as above (prismatic: m, m/s, N, N/m, N s/m).
+//   Roles: q_a, q_b kPosition; qd_a, qd_b kVelocity; F_a, F_b kForce.
+//
+// "mechanics.gravity"  (the gravity load of a body on its axis)
+//   rotational:  tau_g = mgl sin(q - q_down)      (write it as "-torque": it pulls towards q_down)
+//     mgl [N m]     1 (-inf, inf)  neutral 0   m g l of the body's centre of mass at distance l
+//     q_down [rad]  0 (-pi, pi)    no neutral  the angle at which the body hangs straight down
+//   prismatic:   F_g = m g                        (write it as "-force" on an axis pointing up)
+//     m [kg]        1 (0, inf)     neutral 0   the moving mass the axis lifts
+//     option "gravity" g [m/s^2] (default 9.80665, > 0)
+//   input q [rad] (-pi, pi) or [m] (-1, 1) the axis position (read for a uniform wiring on a
+//   prismatic axis, where the weight does not depend on it); output tau_g [N m] or F_g [N]
+//   (-10, 10), role kForce; option "motion" as above.
 #pragma once
 
 namespace graybox::models {
@@ -113,6 +137,8 @@ namespace graybox::models {
 inline constexpr char kAddedInertia[] = "mechanics.added_inertia";
 inline constexpr char kPayload[] = "mechanics.payload";
 inline constexpr char kElasticCoupling[] = "mechanics.elastic_coupling";
+inline constexpr char kSpringDamper[] = "mechanics.spring_damper";
+inline constexpr char kGravityLoad[] = "mechanics.gravity";
 
 /// Standard gravity [m/s^2], the default magnitude of the payload's gravity option.
 inline constexpr double kStandardGravity = 9.80665;

@@ -163,7 +163,8 @@ class Model {
                 const std::string& description = "", double typical_min = -1.0,
                 double typical_max = 1.0);
 
-  /// Adds a block instance. inputs[i] names the signal feeding block input i; outputs[i] names
+  /// Adds a block instance. inputs[i] names the signal feeding block input i ("" leaves the input
+  /// unconnected: it reads 0, e.g. the external torque of a joint nothing loads); outputs[i] names
   /// the signal block output i adds to ("-name" subtracts; "" leaves the output unconnected).
   /// Its parameters start at their nominal values, free except those the block declares
   /// fixed_by_default (known settings such as controller gains; Free() them to identify them).

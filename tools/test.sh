@@ -34,6 +34,16 @@ cmake -S "$GRAYBOX_ROOT/tests/consumer" -B "$GRAYBOX_ROOT/build/consumer" -DCMAK
   -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$GRAYBOX_ROOT/build/consumer" -j "$jobs"
 "$GRAYBOX_ROOT/build/consumer/consumer"
+# A user's own block from a plugin (tests/consumer/user_blocks.cc), fitted by the installed
+# command: the cubic stiffness k3 (truth 200 N/m^3, from 100) within 2 %.
+"$prefix/bin/graybox" fit "$GRAYBOX_ROOT/build/consumer/plugin_problem.toml" \
+  --out "$GRAYBOX_ROOT/build/consumer/plugin_out" >"$log_dir/plugin.log" 2>&1 ||
+  { cat "$log_dir/plugin.log"; echo "plugin fit failed"; exit 1; }
+k3=$(grep -A1 '"spring.k3": {' "$GRAYBOX_ROOT/build/consumer/plugin_out/result.json" |
+  sed -n 's/.*"value": \([-0-9.eE+]*\).*/\1/p')
+awk -v k3="$k3" 'BEGIN { d = k3 / 200 - 1; if (d < 0) d = -d; exit !(d <= 0.02) }' ||
+  { echo "plugin fit: k3 = $k3, expected 200 within 2 %"; exit 1; }
+echo "consumer plugin: user.cubic_spring fitted, k3 = $k3 N/m^3"
 # One closing line over both CTest runs (set -o pipefail has already stopped on any failure).
 passed=0
 failed=0

@@ -15,6 +15,7 @@
 
 #include "graybox/models/augmentation.h"
 #include "graybox/models/block.h"
+#include "graybox/models/block_plugin.h"
 #include "graybox/models/equation_block.h"
 #include "problem/problem_file_internal.h"
 
@@ -294,7 +295,23 @@ void ParseModel(const Section& root, Problem* problem) {
   auto model = root.Sub("model");
   if (!model) root.Fail("", "missing table [model]: expected the model description");
   const Section& m = *model;
-  m.Allow({"name", "inputs", "blocks", "outputs", "augment", "parameters"});
+  m.Allow({"name", "plugins", "inputs", "blocks", "outputs", "augment", "parameters"});
+  // Block plugins first: their types are then known to the blocks below (models/block_plugin.h).
+  if (m.Has("plugins")) {
+    const std::vector<std::string> plugins = m.Strings("plugins");
+    const toml::array* a = m.Get("plugins")->as_array();
+    for (std::size_t i = 0; i < plugins.size(); ++i) {
+      const std::string path =
+          (fs::path(problem->directory) / plugins[i]).lexically_normal().string();
+      try {
+        models::LoadBlockPlugin(path);
+      } catch (const std::exception& e) {
+        throw ProblemFileError(m.Location(a->get(i)->source()),
+                               "'plugins[" + std::to_string(i) + "]': " + e.what());
+      }
+      problem->plugins.push_back(path);
+    }
+  }
   problem->model = models::Model(m.String("name").value_or(problem->name));
   for (const Section& in : m.SubArray("inputs")) {
     in.Allow({"name", "unit", "description", "min", "max"});

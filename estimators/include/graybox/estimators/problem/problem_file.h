@@ -9,7 +9,8 @@
 //
 // Sections (one per concern):
 //   [problem]      name, description
-//   [model]        name, inputs (name, unit), [[model.blocks]] (instance, type, options, inputs,
+//   [model]        name, plugins (shared libraries of blocks, models/block_plugin.h), inputs
+//                  (name, unit), [[model.blocks]] (instance, type, options, inputs,
 //                  outputs: exactly models::Model::AddBlock), outputs (signal names),
 //                  [[model.augment]] (instance, type, options and one placement: inputs +
 //                  outputs, on_signal, on_output + readers, or for_readers = {signal, readers,
@@ -320,6 +321,9 @@ struct Problem {
   /// The model with the file's parameter settings applied, and its built form.
   models::Model model = models::Model("model");
   models::StateSpaceModel built;
+  /// The block plugins of [model] plugins (resolved against the problem file's folder), loaded
+  /// into the registry before the blocks were created (models/block_plugin.h).
+  std::vector<std::string> plugins;
   /// Block instance -> registered type, in file order: the [[model.blocks]], then the
   /// [[model.augment]] instances.
   std::vector<std::pair<std::string, std::string>> blocks;

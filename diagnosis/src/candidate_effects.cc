@@ -133,7 +133,10 @@ void AddRipples(const estimators::Problem& problem, const MechanicalAxis& axis,
     c.instance = FreshInstance(problem.model, "ripple", taken);
     const auto block = std::shared_ptr<const models::Block>(
         models::BlockRegistry::Global().Create(models::kRippleFriction, o));
-    const std::vector<std::string> held = SplitParameters(*block, &c);
+    std::vector<std::string> held = SplitParameters(*block, &c);
+    // The period stays at the candidate's value in the re-fit too (one candidate per period).
+    const std::string period_parameter = c.instance + ".period";
+    c.refit.erase(std::remove(c.refit.begin(), c.refit.end(), period_parameter), c.refit.end());
     const std::string instance = c.instance, position = axis.position, connection = axis.connection;
     c.augmentation = {models::Augmentation::Kind::kAdd,
                       c.instance,

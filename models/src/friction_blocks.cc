@@ -379,13 +379,18 @@ class RippleFriction : public BlockBase<RippleFriction> {
       info_.parameters.push_back(
           MakeParameter("b" + n, "N m", "sine amplitude of harmonic " + n, 0.0, -kInf, kInf, 0.0));
     }
+    // The period: known from the design, so fixed unless a caller frees it (friction.h).
+    ParameterInfo period = MakeParameter("period", "rad", "period of the first harmonic", period_,
+                                         0.5 * period_, 2.0 * period_);
+    period.fixed_by_default = true;
+    info_.parameters.push_back(period);
     ApplyMotionUnits(kRippleFriction, options, &info_);
   }
   template <typename Scalar>
   void Compute(const BlockArgs<Scalar>& a) const {
     using std::cos;
     using std::sin;
-    const Scalar phase = (2.0 * kPi / period_) * a.u[0];
+    const Scalar phase = (2.0 * kPi / a.p[2 * harmonics_]) * a.u[0];
     Scalar tau(0.0);
     for (int k = 1; k <= harmonics_; ++k) {
       const Scalar arg = static_cast<double>(k) * phase;

@@ -204,9 +204,10 @@ INSTANTIATE_TEST_SUITE_P(AllBlocks, RegisteredBlock, ::testing::ValuesIn(Registe
                          });
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(RegisteredBlock);
 
-// Exactly the parameters the problem files fixed before fixed_by_default existed (the gains and
-// the limit of control.cascade_p), with the shared tests' options and with the defaults.
-TEST(BlockRegistry, FixedByDefaultAreExactlyTheControllerSettings) {
+// Exactly the known settings: the parameters the problem files fixed before fixed_by_default
+// existed (the gains and the limit of control.cascade_p) and the ripple's design period, with the
+// shared tests' options and with the defaults.
+TEST(BlockRegistry, FixedByDefaultAreExactlyTheKnownSettings) {
   const BlockRegistry& registry = BlockRegistry::Global();
   std::set<std::string> fixed;
   for (const std::string& type : registry.Types()) {
@@ -223,7 +224,7 @@ TEST(BlockRegistry, FixedByDefaultAreExactlyTheControllerSettings) {
     }
   }
   EXPECT_EQ(fixed, (std::set<std::string>{"control.cascade_p.kp", "control.cascade_p.kv",
-                                          "control.cascade_p.limit"}));
+                                          "control.cascade_p.limit", "friction.ripple.period"}));
 }
 
 // The physical roles of the mechanical axis signals of the friction, mechanics, load, drive and

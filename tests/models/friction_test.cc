@@ -284,10 +284,15 @@ TEST(Friction, RippleIsAFourierSeriesInPosition) {
   options.numbers["harmonics"] = {2};
   options.numbers["period"] = {0.5};
   const auto block = Make(kRippleFriction, options);
-  ASSERT_EQ(block->NumParameters(), 4);
+  ASSERT_EQ(block->NumParameters(), 5);
   EXPECT_EQ(block->info().parameters[0].name, "a1");
   EXPECT_EQ(block->info().parameters[3].name, "b2");
-  const Eigen::Vector4d p(0.1, -0.2, 0.03, 0.04);  // a1, b1, a2, b2
+  // The period: the option's value, a parameter that starts fixed.
+  EXPECT_EQ(block->info().parameters[4].name, "period");
+  EXPECT_EQ(block->info().parameters[4].nominal, 0.5);
+  EXPECT_TRUE(block->info().parameters[4].fixed_by_default);
+  Eigen::VectorXd p(5);
+  p << 0.1, -0.2, 0.03, 0.04, 0.5;  // a1, b1, a2, b2, period
   for (double q : {-3.0, -0.1, 0.0, 0.2, 1.3}) {
     const double w = 2.0 * kPi / 0.5;
     const double expected = 0.1 * std::cos(w * q) - 0.2 * std::sin(w * q) +

@@ -193,9 +193,12 @@
 //   input q [rad] (-pi, pi);  output tau [N m]
 //   a1, b1, ..., aK, bK [N m]  0 (-inf, inf)  neutral 0   Fourier amplitudes (parameters in this
 //   order: a1, b1, a2, b2, ...)
+//   period [rad]  P (P/2, 2 P)  no neutral   period of the first harmonic, fixed by default
 //   options "harmonics" K (integer 1..1000, default 1), "period" P [rad] (default 2 pi, one
-//   revolution). The period is an option, not a parameter: it is known from the design (pole and
-//   slot counts, gear teeth), and a free period makes the fit multimodal.
+//   revolution): the period's value. It is usually known from the design (pole and slot counts,
+//   gear teeth) and a free period makes the fit multimodal, so the parameter starts fixed
+//   (ParameterInfo::fixed_by_default); free it (`free = true` in a problem file) to refine a
+//   period known to within a factor of 2, from a start near it.
 //
 // "friction.kuka"  (roblue, SOURCE.md)
 //     tau = f_asym + f_vis qd + f_coul tanh(s qd) + f_a tanh(f_b qd)

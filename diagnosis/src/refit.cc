@@ -72,15 +72,9 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       out.candidate.augmentation.options.numbers[option] = {value};
     }
     // Options the candidate reads from the model's parameters, at the re-fit's start values.
-    if (!c.options_from_parameters.empty()) {
-      models::Model start = problem.model;
-      for (int i = 0; i < problem.built.NumParameters(); ++i) {
-        start.Parameter(problem.built.parameters[i].name).value = nominal.values[i];
-      }
-      const models::Augmentation a = AugmentationFor(c, start);
-      for (const auto& [option, parameter] : c.options_from_parameters) {
-        out.candidate.augmentation.options.numbers[option] = a.options.numbers.at(option);
-      }
+    for (const auto& [option, parameter] : c.options_from_parameters) {
+      out.candidate.augmentation.options.numbers[option] = {
+          nominal.values[problem.built.ParameterIndex(parameter)]};
     }
     est::Problem aug = AugmentedProblem(problem, nominal, c, false);
     est::FitOptions fo;

@@ -60,6 +60,13 @@ Json ParametersJson(const std::vector<est::FitParameter>& parameters) {
   return j;
 }
 
+// The sparse regression's effects: [{effect, share}, ...].
+Json EffectsJson(const std::vector<SparseEffect>& effects) {
+  Json j = Json::array();
+  for (const SparseEffect& e : effects) j.push_back({{"effect", e.effect}, {"share", e.share}});
+  return j;
+}
+
 Json FitJson(const est::FitResult& fit) {
   Json j;
   j["method"] = fit.method;
@@ -310,10 +317,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   sparse["failure"] = sr.failure;
   sparse["note"] = sr.note;
   sparse["threshold"] = d.options.sparse_regression.threshold;
-  sparse["effects"] = Json::array();
-  for (const SparseEffect& e : sr.effects) {
-    sparse["effects"].push_back({{"effect", e.effect}, {"share", e.share}});
-  }
+  sparse["effects"] = EffectsJson(sr.effects);
   sparse["axes"] = Json::array();
   for (const AxisRegression& a : sr.axes) {
     Json aj;
@@ -330,10 +334,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
                              {"coefficient", t.coefficient},
                              {"share", t.share}});
     }
-    aj["effects"] = Json::array();
-    for (const SparseEffect& e : a.effects) {
-      aj["effects"].push_back({{"effect", e.effect}, {"share", e.share}});
-    }
+    aj["effects"] = EffectsJson(a.effects);
     sparse["axes"].push_back(aj);
   }
   sparse["agreed_effects"] = d.agreed_effects;

@@ -233,12 +233,72 @@ RigidBody FindRigidBody(const estimators::Problem& problem, const MechanicalAxis
 }
 }  // namespace
 
+namespace {
+// The inertias a drive block integrates inside its own torque balance, by the velocity state they
+// belong to: the block's local parameter names and the effect a change of each stands for.
+struct OwnedInertia {
+  const char* type;      // block type
+  const char* velocity;  // local name of the velocity state
+  const char* parameter;
+  const char* effect;
+  const char* detail;
+};
+constexpr OwnedInertia kOwnedInertias[] = {
+    {models::kTwoMassDrive, "qd_m", "J", "rotor_inertia", "motor-side inertia J freed"},
+    {models::kTwoMassDrive, "qd_l", "I", "payload", "link-side inertia I freed"},
+    {models::kDcMotorDrive, "omega", "J_rs", "rotor_inertia", "rotor inertia J_rs freed"},
+    {models::kDcMotorDrive, "omega", "J_os", "payload", "output-shaft inertia J_os freed"},
+};
+
+// rotor_inertia and payload on an axis whose velocity state belongs to a drive block that holds
+// its inertias inside (file comment): the fixed inertia parameter is freed at its current value.
+void AddOwnedInertias(const estimators::Problem& problem, const MechanicalAxis& axis, bool inertia,
+                      bool payload, std::vector<Candidate>* out) {
+  const models::StateSpaceModel& built = problem.built;
+  const auto& v = built.signals[built.SignalIndex(axis.velocity)];
+  if (v.source != SignalSource::kState || v.blocks.size() != 1) return;
+  for (const auto& b : problem.model.Blocks()) {
+    if (b.instance != v.blocks[0]) continue;
+    std::vector<const OwnedInertia*> owned;
+    for (const OwnedInertia& o : kOwnedInertias) {
+      if (b.type == o.type && axis.velocity == b.instance + "." + o.velocity) owned.push_back(&o);
+    }
+    // Another inertia of the same balance already free is the same unknown: none is proposed.
+    bool any_free = false;
+    for (const OwnedInertia* o : owned) {
+      any_free =
+          any_free || built.parameters[built.ParameterIndex(b.instance + "." + o->parameter)].free;
+    }
+    if (any_free) return;
+    for (const OwnedInertia* o : owned) {
+      const std::string effect = o->effect;
+      if ((effect == "rotor_inertia" && !inertia) || (effect == "payload" && !payload)) continue;
+      const std::string name = b.instance + "." + o->parameter;
+      Candidate c;
+      c.effect = effect;
+      c.detail = o->detail;
+      c.attachment = "inertia " + name + " of velocity " + axis.velocity;
+      c.instance = b.instance;
+      c.parameters = {name};
+      c.screened = {name};
+      c.refit = {name};
+      c.apply = [name](models::Model* m) { m->Free(name); };
+      out->push_back(std::move(c));
+    }
+    return;
+  }
+}
+}  // namespace
+
 // rotor_inertia and payload (file comment).
 void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bool inertia,
               bool payload, bool elasticity, std::set<std::string>* taken,
               std::vector<Candidate>* out) {
   const RigidBody body = FindRigidBody(problem, axis);
-  if (body.instance.empty()) return;
+  if (body.instance.empty()) {
+    AddOwnedInertias(problem, axis, inertia, payload, out);
+    return;
+  }
   const double mass_now = problem.built.parameters[problem.built.ParameterIndex(body.mass)].value;
   struct Variant {
     std::string effect, type, detail;

@@ -40,12 +40,6 @@ constexpr double kMultiplierRidge = 1e-14;
 // variables) is at the bound: Ipopt's interior point stops within about its tolerance of it.
 constexpr double kActiveBound = 1e-6;
 
-int NumFree(const std::vector<models::ModelParameter>& parameters) {
-  int n = 0;
-  for (const auto& p : parameters) n += p.free ? 1 : 0;
-  return n;
-}
-
 Eigen::SparseMatrix<double> Triplets(int rows, int cols, const std::vector<int>& r,
                                      const std::vector<int>& c, const Eigen::VectorXd& v) {
   std::vector<Eigen::Triplet<double>> t;
@@ -460,19 +454,26 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
     fo.compute_covariance = false;
     fo.evaluate_splits = false;
     est::FitSession session(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
-    const int n_nominal = NumFree(problem.built.parameters);
     const Eigen::VectorXd& w_nom = nominal.solver_result.w;
-    // A point of the restricted problem (new parameters held) in the augmented NLP's layout: the
-    // free parameters first, the candidate's (at their scaled neutral values, as in w0) after the
-    // nominal ones, then the other variables.
+    // A point of the restricted problem (the candidate's parameters held) in the augmented NLP's
+    // layout: the free parameters first in the model's parameter order (parameter_map.h), the
+    // candidate's at their scaled start values (w0: neutral for a new block, the current value
+    // for a freed parameter of the model), the others from `restricted` in order; then the
+    // other variables.
     auto insert_neutral = [&](const est::Nlp& nlp, const Eigen::VectorXd& restricted) {
       Eigen::VectorXd w;
       if (restricted.size() == nlp.NumVariables()) return restricted;
-      if (restricted.size() + out.dof == nlp.NumVariables() && restricted.size() >= n_nominal) {
-        w.resize(nlp.NumVariables());
-        w << restricted.head(n_nominal), nlp.w0().segment(n_nominal, out.dof),
-            restricted.tail(restricted.size() - n_nominal);
+      if (restricted.size() + out.dof != nlp.NumVariables()) return w;
+      w.resize(nlp.NumVariables());
+      Eigen::Index j = 0, r = 0;
+      for (const models::ModelParameter& p : aug.built.parameters) {
+        if (!p.free) continue;
+        const bool held = std::find(candidate.screened.begin(), candidate.screened.end(), p.name) !=
+                          candidate.screened.end();
+        w(j) = held ? nlp.w0()(j) : restricted(r++);
+        ++j;
       }
+      w.tail(w.size() - j) = restricted.tail(restricted.size() - r);
       return w;
     };
     Eigen::VectorXd w;

@@ -160,6 +160,17 @@
 //                  dM is the same unknown) and on rotational axes (a sliding body has no rotor: its
 //                  added mass is a payload). Detail "mechanics.added_inertia", attachment "force
 //                  F -> <body>".
+//                  On an axis whose velocity state belongs to a drive block that integrates its
+//                  inertias inside its own torque balance, the block's fixed inertia parameter
+//                  itself is freed at its current value (a freed parameter: Candidate::parameters
+//                  names it, Candidate::instance is the block; no block is added and the model is
+//                  unchanged at the start value): drive.two_mass J on qd_m (rotor_inertia, detail
+//                  "motor-side inertia J freed"), drive.dc_motor J_rs on omega ("rotor inertia
+//                  J_rs freed"). Proposed only when no inertia of that balance is free
+//                  (drive.two_mass J and I are two balances; drive.dc_motor's J_rs and J_os are
+//                  one). Attachment "inertia <parameter> of velocity <v>". No declarative form: the
+//                  re-run is the parameter made free in [model.parameters] (diagnosis.json's
+//                  parameter lines).
 //   payload        mechanics.payload  on the same bodies, reading the axis position too:
 //                  rotational: (F - g_s sin q - g_c cos q) / (1 + dM / M), g_s, g_c, dM free
 //                  (neutral 0; dM held at 0 when the body's inertia is free, as above), detail
@@ -172,6 +183,11 @@
 //                  two alike (a sign), the re-fit keeps the one with m >= 0 interior. On a rigid
 //                  axis an added mass cannot be told from a reflected rotor inertia; the name
 //                  says where it is on a sliding body. Attachment "force F -> <body>, position q".
+//                  On the drive blocks above, the load-side inertia freed: drive.two_mass I on
+//                  qd_l (detail "link-side inertia I freed"), drive.dc_motor J_os on omega
+//                  ("output-shaft inertia J_os freed"); inertia only, no gravity term (those
+//                  blocks' loads are horizontal in their equations; a gravity load on a
+//                  drive.two_mass link is not proposed).
 //   backlash       transmission.backlash  b free (neutral 0, >= 0): on every drive.two_mass
 //                  that has no backlash parameter (and reads two distinct torque signals): reads
 //                  the joint's q_m, q_l, qd_m, qd_l, writes the joint-torque change
@@ -191,9 +207,8 @@
 //                  mdot signal for the chamber only (also reading its pressure and volume rate),
 //                  with T the chamber's temperature parameter's value when applied and R air's.
 //                  Proposed only when the chamber's polytropic_exponent is fixed: a free one is
-//                  this unknown already. Freeing the fixed parameter itself at its nominal value
-//                  would be simpler, but the score test inserts the candidate's variables after
-//                  the nominal free parameters (screening.h), which holds for new parameters only.
+//                  this unknown already (freeing the fixed exponent is the same unknown; the
+//                  block keeps the nominal exponent visible beside the correction e).
 //   sensor_offset  sensor.offset      b free (neutral 0): y_meas = y + b
 //   sensor_scale   sensor.scale       s free (neutral 0): y_meas = (1 + s) y
 //                  On every output channel (Model::Outputs), with the channel's unit and typical
@@ -274,12 +289,13 @@ struct Candidate {
   /// Where it attaches: "velocity load.qd -> force force", "input u", "command nu -> drive",
   /// "position load.q -> force force" or "output load.q [and controller c]".
   std::string attachment;
-  /// The new block's instance name.
+  /// The new block's instance name (for a freed parameter of the model: the block that owns it).
   std::string instance;
   /// Adds the block to a copy of the problem's model (parameters at their neutral values, those
   /// held at their nominal fixed). Apply to a model equal to problem.model, once.
   std::function<void(models::Model*)> apply;
-  /// Qualified names of every new parameter, in the block's order.
+  /// Qualified names of every new parameter, in the block's order (or of the model's parameter
+  /// the candidate frees).
   std::vector<std::string> parameters;
   /// Free in the score test (neutral value, not a repeat of a term the axis has).
   std::vector<std::string> screened;

@@ -18,7 +18,6 @@
 #include "graybox/models/loads.h"
 #include "graybox/models/mechanics.h"
 #include "graybox/models/sensors.h"
-#include "graybox/models/transmission_effects.h"
 #include "graybox/util/did_you_mean.h"
 
 namespace graybox::diagnosis::internal {
@@ -496,54 +495,34 @@ void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool po
 }
 
 // backlash on every drive.two_mass without one (file comment).
-void AddBacklash(const estimators::Problem& problem, std::set<std::string>* taken,
-                 std::vector<Candidate>* out) {
+void AddBacklash(const estimators::Problem& problem, std::vector<Candidate>* out) {
   const models::StateSpaceModel& built = problem.built;
   for (const auto& b : problem.model.Blocks()) {
-    if (b.type != models::kTwoMassDrive || b.inputs.size() != 2 || b.inputs[0] == b.inputs[1]) {
-      continue;
-    }
+    if (b.type != models::kTwoMassDrive) continue;
     bool has_backlash = false;
     for (const auto& p : built.parameters)
       has_backlash = has_backlash || p.name == b.instance + ".b";
     if (has_backlash) continue;
-    const std::string joint = b.instance, motor = b.inputs[0], load = b.inputs[1];
+    const std::string joint = b.instance;
+    const std::string motor = b.inputs[0].empty() ? "(none)" : b.inputs[0];
+    const std::string load = b.inputs[1].empty() ? "(none)" : b.inputs[1];
     Candidate c;
     c.effect = "backlash";
-    c.detail = models::kBacklashCorrection;
+    c.detail = "drive.two_mass backlash form";
     c.attachment = "joint " + joint + " (torques " + motor + ", " + load + ")";
-    c.instance = FreshInstance(problem.model, "backlash", taken);
-    auto options = [](double ke, double d) {
-      BlockOptions o;
-      o.numbers["stiffness"] = {ke};
-      o.numbers["damping"] = {d};
-      return o;
-    };
-    const auto block = models::BlockRegistry::Global().Create(
-        models::kBacklashCorrection,
-        options(built.parameters[built.ParameterIndex(joint + ".Ke")].value,
-                built.parameters[built.ParameterIndex(joint + ".d")].value));
-    const std::vector<std::string> held = SplitParameters(*block, &c);
-    const std::string instance = c.instance;
-    c.augmentation = {models::Augmentation::Kind::kAdd,
-                      c.instance,
-                      models::kBacklashCorrection,
-                      options(built.parameters[built.ParameterIndex(joint + ".Ke")].value,
-                              built.parameters[built.ParameterIndex(joint + ".d")].value),
-                      {joint + ".q_m", joint + ".q_l", joint + ".qd_m", joint + ".qd_l"},
-                      {"-" + motor, load},
-                      "",
-                      {},
-                      {}};
-    c.options_from_parameters = {{"stiffness", joint + ".Ke"}, {"damping", joint + ".d"}};
-    c.apply = [options, instance, joint, motor, load, held](models::Model* m) {
-      // The joint's stiffness and damping as the model has them now (transmission_effects.h).
-      const auto blk = std::shared_ptr<const models::Block>(models::BlockRegistry::Global().Create(
-          models::kBacklashCorrection,
-          options(m->Parameter(joint + ".Ke").value, m->Parameter(joint + ".d").value)));
-      m->Augment(instance, blk, {joint + ".q_m", joint + ".q_l", joint + ".qd_m", joint + ".qd_l"},
-                 {"-" + motor, load});
-      for (const auto& q : held) m->Fix(q);
+    c.instance = joint;
+    const std::string gap = joint + ".b";
+    c.parameters = {gap};
+    c.screened = {gap};
+    c.refit = {gap};
+    // The joint in its backlash form, the same element with the same parameters and one more:
+    // exact at b = 0 and consistent when a re-fit moves Ke and d (the reported tau_s included).
+    BlockOptions options;
+    options.numbers["backlash"] = {1};
+    const auto& q_m = built.states[built.StateIndex(joint + ".q_m")];
+    if (q_m.unit == "m") options.words["motion"] = "prismatic";
+    c.apply = [joint, options](models::Model* m) {
+      m->ReplaceBlock(joint, models::kTwoMassDrive, options);
     };
     out->push_back(std::move(c));
   }

@@ -334,7 +334,7 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
     AddLoads(problem, axis, wanted("rotor_inertia"), wanted("payload"), wanted("elasticity"),
              &taken, &out);
   }
-  if (wanted("backlash")) AddBacklash(problem, &taken, &out);
+  if (wanted("backlash")) AddBacklash(problem, &out);
   AddChamberEffects(problem, wanted("leakage"), wanted("polytropic_index"), &taken, &out);
   for (const char* effect : {"sensor_offset", "sensor_scale"}) {
     if (wanted(effect)) AddSensors(problem, effect, &taken, &out);

@@ -204,7 +204,6 @@ void AddChamberEffects(const estimators::Problem& problem, bool leakage, bool po
                        std::set<std::string>* taken, std::vector<Candidate>* out);
 
 // backlash on every drive.two_mass without one (file comment).
-void AddBacklash(const estimators::Problem& problem, std::set<std::string>* taken,
-                 std::vector<Candidate>* out);
+void AddBacklash(const estimators::Problem& problem, std::vector<Candidate>* out);
 
 }  // namespace graybox::diagnosis::internal

@@ -226,6 +226,74 @@ void Model::Augment(const std::string& instance, const std::string& type,
   Augment(instance, FromRegistry(type, options), inputs, outputs);
 }
 
+void Model::ReplaceBlock(const std::string& instance, std::shared_ptr<const Block> block) {
+  auto it = std::find_if(instances_.begin(), instances_.end(),
+                         [&](const Instance& i) { return i.name == instance; });
+  if (it == instances_.end()) {
+    std::vector<std::string> names;
+    for (const auto& i : instances_) names.push_back(i.name);
+    throw std::invalid_argument("model '" + name_ + "': ReplaceBlock: unknown block instance '" +
+                                instance + "'" + Suggest(instance, names));
+  }
+  if (!block) {
+    throw std::invalid_argument("model '" + name_ + "': ReplaceBlock('" + instance +
+                                "'): the block is null");
+  }
+  const BlockInfo& old_info = it->block->info();
+  const BlockInfo& info = block->info();
+  const std::string where =
+      "model '" + name_ + "': ReplaceBlock('" + instance + "', " + info.type + "): ";
+  if (block->NumInputs() != it->block->NumInputs() ||
+      block->NumOutputs() != it->block->NumOutputs()) {
+    throw std::invalid_argument(
+        where + "expected " + std::to_string(it->block->NumInputs()) + " inputs and " +
+        std::to_string(it->block->NumOutputs()) + " outputs (as " + old_info.type + "), got " +
+        std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs()));
+  }
+  bool same_states = info.states.size() == old_info.states.size();
+  for (std::size_t k = 0; same_states && k < info.states.size(); ++k) {
+    same_states = info.states[k].name == old_info.states[k].name;
+  }
+  if (!same_states) {
+    throw std::invalid_argument(where + "expected the states of " + old_info.type +
+                                " (other blocks read them)");
+  }
+  // The instance's parameters are contiguous in parameters_, in instance order (Build relies on
+  // it): after those of the instances before it.
+  const std::string prefix = instance + ".";
+  std::ptrdiff_t offset = 0;
+  for (auto i = instances_.begin(); i != it; ++i) offset += i->block->NumParameters();
+  const auto first = parameters_.begin() + offset;
+  const auto last = first + it->block->NumParameters();
+  std::vector<ModelParameter> replaced;
+  for (const ParameterInfo& par : info.parameters) {
+    ModelParameter mp;
+    mp.name = prefix + par.name;
+    const auto old =
+        std::find_if(first, last, [&](const ModelParameter& p) { return p.name == mp.name; });
+    if (old != last) {
+      mp = *old;
+      mp.info = par;
+    } else {
+      mp.info = par;
+      mp.value = par.HasNeutral() ? par.neutral : par.nominal;
+      mp.free = !par.fixed_by_default;
+      mp.scale = DefaultParameterScale(par);
+      mp.lower = par.lower;
+      mp.upper = par.upper;
+    }
+    replaced.push_back(mp);
+  }
+  const auto at = parameters_.erase(first, last);
+  parameters_.insert(at, replaced.begin(), replaced.end());
+  it->block = std::move(block);
+}
+
+void Model::ReplaceBlock(const std::string& instance, const std::string& type,
+                         const BlockOptions& options) {
+  ReplaceBlock(instance, FromRegistry(type, options));
+}
+
 void Model::InsertOnSignal(const std::string& signal, const std::string& instance,
                            std::shared_ptr<const Block> block) {
   if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {

@@ -44,7 +44,9 @@ class BacklashCorrection : public BlockBase<BacklashCorrection> {
     info_.outputs = {
         {"tau_motor", "N m", "joint torque change (subtract from the motor torque)", -0.4, 0.4,
          kForce},
-        {"tau_load", "N m", "joint torque change (add to the load torque)", -0.4, 0.4, kForce}};
+        {"tau_load", "N m", "joint torque change (add to the load torque)", -0.4, 0.4, kForce},
+        {"tau_joint", "N m", "joint torque change (add to the joint's reported tau_s)", -0.4, 0.4,
+         kForce}};
     info_.parameters = {
         MakeParameter("b", "rad", "backlash: half width of the dead zone", 2e-3, 0.0, 0.5, 0.0)};
   }
@@ -57,6 +59,7 @@ class BacklashCorrection : public BlockBase<BacklashCorrection> {
                           damping_ * (SmoothDeadZoneSlope(delta, b, smoothing_) - 1.0) * delta_dot;
     a.y[0] = change;
     a.y[1] = change;
+    a.y[2] = change;
   }
 
  private:

@@ -548,9 +548,10 @@ TEST(BacklashCorrection, TurnsTheJointIntoItsBacklashForm) {
     m.AddInput("load", "N m", "load torque", -0.4, 0.4);
     BlockOptions o;
     if (backlash) o.numbers["backlash"] = {1};
-    m.AddBlock("joint", kTwoMassDrive, o, {"tau", "load"}, {"", "", "", "", ""});
+    m.AddBlock("joint", kTwoMassDrive, o, {"tau", "load"}, {"", "", "", "", "torque"});
     m.SetParameter("joint.d", 0.02);
     m.AddOutput("joint.q_l");
+    m.AddOutput("torque");  // the joint torque a sensor in the spring measures
     return m;
   };
   Model with = joint(true);
@@ -560,7 +561,7 @@ TEST(BacklashCorrection, TurnsTheJointIntoItsBacklashForm) {
   c.numbers["stiffness"] = {added.Parameter("joint.Ke").value};
   c.numbers["damping"] = {0.02};
   added.Augment("backlash", kBacklashCorrection, c,
-                {"joint.q_m", "joint.q_l", "joint.qd_m", "joint.qd_l"}, {"-tau", "load"});
+                {"joint.q_m", "joint.q_l", "joint.qd_m", "joint.qd_l"}, {"-tau", "load", "torque"});
   EXPECT_EQ(added.Parameter("backlash.b").value, 0.0);  // neutral
   const StateSpaceModel base = joint(false).Build();
   const StateSpaceModel neutral = added.Build();
@@ -574,6 +575,11 @@ TEST(BacklashCorrection, TurnsTheJointIntoItsBacklashForm) {
     const Eigen::VectorXd fa = a.dynamics({x, u, a.ParameterValues()})[0];
     const Eigen::VectorXd fb = b.dynamics({x, u, b.ParameterValues()})[0];
     EXPECT_LE((fa - fb).lpNorm<Eigen::Infinity>(), kRounding * fb.lpNorm<Eigen::Infinity>())
+        << "delta " << delta;
+    // The reported joint torque too (tau_joint added to the joint's tau_s).
+    const Eigen::VectorXd ya = a.output({x, u, a.ParameterValues()})[0];
+    const Eigen::VectorXd yb = b.output({x, u, b.ParameterValues()})[0];
+    EXPECT_LE((ya - yb).lpNorm<Eigen::Infinity>(), kRounding * yb.lpNorm<Eigen::Infinity>())
         << "delta " << delta;
     const Eigen::VectorXd f0 = base.dynamics({x, u, base.ParameterValues()})[0];
     const Eigen::VectorXd fn = neutral.dynamics({x, u, neutral.ParameterValues()})[0];

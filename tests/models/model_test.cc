@@ -265,5 +265,52 @@ TEST(Model, BadConnectionsAndParametersAreRejected) {
   }
 }
 
+// ReplaceBlock: a joint replaced by its backlash form keeps its connections, its parameters'
+// values, free flags and bounds, and its place in the parameter order; the new gap starts at its
+// neutral value, where the model is the old one exactly.
+TEST(Model, ReplaceBlockKeepsConnectionsAndParameters) {
+  Model m("joint");
+  m.AddInput("tau", "N m", "motor torque", -0.4, 0.4);
+  m.AddBlock("joint", "drive.two_mass", {}, {"tau", ""}, {"", "", "", "", "torque"});
+  m.AddBlock("friction", "friction.viscous", {}, {"joint.qd_m"}, {"-tau"});
+  m.AddOutput("joint.q_l");
+  m.AddOutput("torque");
+  m.SetParameter("joint.Ke", 5.0);
+  m.Fix("joint.J");
+  m.Parameter("joint.d").upper = 0.5;
+  const StateSpaceModel before = m.Build();
+  BlockOptions backlash;
+  backlash.numbers["backlash"] = {1};
+  Model r = m;
+  r.ReplaceBlock("joint", "drive.two_mass", backlash);
+  const StateSpaceModel after = r.Build();
+  ASSERT_EQ(after.NumParameters(), before.NumParameters() + 1);
+  std::vector<std::string> names;
+  for (const auto& p : after.parameters) names.push_back(p.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"joint.J", "joint.I", "joint.Ke", "joint.d", "joint.b",
+                                             "friction.fv"}));
+  EXPECT_EQ(r.Parameter("joint.Ke").value, 5.0);
+  EXPECT_FALSE(r.Parameter("joint.J").free);
+  EXPECT_EQ(r.Parameter("joint.d").upper, 0.5);
+  EXPECT_EQ(r.Parameter("joint.b").value, 0.0);  // neutral
+  EXPECT_TRUE(r.Parameter("joint.b").free);
+  const Eigen::Vector4d x(0.104, 1.5, 0.1, -0.7);
+  const Eigen::VectorXd u = Eigen::VectorXd::Constant(1, 0.2);
+  Eigen::VectorXd p_after(after.NumParameters());
+  p_after << before.ParameterValues().head(4), 0.0, before.ParameterValues().tail(1);
+  EXPECT_EQ(after.dynamics({x, u, p_after})[0],
+            before.dynamics({x, u, before.ParameterValues()})[0]);
+  EXPECT_EQ(after.output({x, u, p_after})[0], before.output({x, u, before.ParameterValues()})[0]);
+  // Errors leave the model unchanged.
+  EXPECT_THROW(r.ReplaceBlock("friction", "drive.two_mass", {}), std::invalid_argument);
+  try {
+    r.ReplaceBlock("joitn", "drive.two_mass", {});
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'joint'"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(r.Build().NumParameters(), after.NumParameters());
+}
+
 }  // namespace
 }  // namespace graybox::models

@@ -188,15 +188,18 @@
 //                  ("output-shaft inertia J_os freed"); inertia only, no gravity term (those
 //                  blocks' loads are horizontal in their equations; a gravity load on a
 //                  drive.two_mass link is not proposed).
-//   backlash       transmission.backlash  b free (neutral 0, >= 0): on every drive.two_mass
-//                  that has no backlash parameter (and reads two distinct torque signals): reads
-//                  the joint's q_m, q_l, qd_m, qd_l, writes the joint-torque change
-//                  Ke (DZ(delta) - delta) + d (DZ'(delta) - 1) d(delta)/dt as "-tau_m" and
-//                  "+tau_ext" on the joint's torque inputs, which makes the joint its backlash
-//                  form exactly (models/transmission_effects.h); Ke, d are the joint's values when
-//                  applied (the nominal fit's in screening; a re-fit that moves them keeps these).
-//                  The joint's own tau_s output does not include the change. Attachment "joint
-//                  <j> (torques <tau_m>, <tau_ext>)".
+//   backlash       drive.two_mass in its backlash form (option backlash = 1, drives.h), b free
+//                  (neutral 0, >= 0): on every drive.two_mass that has no backlash parameter, the
+//                  block is replaced by its backlash form with the same connections and
+//                  parameters (Model::ReplaceBlock; a freed parameter: Candidate::instance is the
+//                  joint, Candidate::parameters "<joint>.b"). Exact at b = 0 and consistent when a
+//                  re-fit moves Ke and d, the reported joint torque tau_s included (a torque
+//                  sensor in the spring reads zero inside the gap; the correction block
+//                  transmission.backlash with Ke frozen at the nominal fit's value closed 17 % of
+//                  a hard backlash's gap where this form closes it). Detail "drive.two_mass
+//                  backlash form", attachment "joint <j> (torques <tau_m>, <tau_ext>)". No
+//                  declarative form: the re-run is the joint's block with options
+//                  { backlash = 1 } and b free.
 //   leakage        pneumatic.leak     G free (neutral 0): a laminar leak G (p - p_atm) out of
 //                  every pneumatic.chamber: reads the chamber's pressure state, writes "-mdot" on
 //                  the chamber's net-inflow signal (its first input). Attachment "chamber <c>
@@ -351,7 +354,9 @@ struct Candidate {
   bool structural = false;
   /// The candidate as a problem file states it (a [[model.augment]] table; the parameters outside
   /// `refit` are fixed): every candidate but the elasticity variant that also moves the
-  /// controller's feedback to the motor side (three blocks; empty type). A chosen option
+  /// controller's feedback to the motor side (three blocks) and those that change a block of the
+  /// model (a freed inertia, a joint's backlash form: the re-run frees the parameter or sets the
+  /// block's option in the problem file) (empty type). A chosen option
   /// (CandidateScore::shape_start) is not in it. Options that apply() reads from the model's
   /// parameters (a load's axis_inertia, backlash's stiffness and damping, the polytropic
   /// correction's temperature) hold the values at enumeration; AugmentationFor gives them for

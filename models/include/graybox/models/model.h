@@ -182,6 +182,17 @@ class Model {
   void Augment(const std::string& instance, const std::string& type, const BlockOptions& options,
                const std::vector<std::string>& inputs, const std::vector<std::string>& outputs);
 
+  /// Replaces the block of `instance` by `block` with the same connections: another
+  /// configuration of the same element (a joint in its backlash form). The new block must have
+  /// as many inputs and outputs and the same states (names, in order). Its parameters whose
+  /// local names the old block had keep their value, free flag, scale and bounds; the others
+  /// start at their neutral values (their nominal values when they have none), free unless
+  /// fixed_by_default. Throws std::invalid_argument, leaving the model unchanged, for an unknown
+  /// instance (did-you-mean) or a block that differs in connections or states.
+  void ReplaceBlock(const std::string& instance, std::shared_ptr<const Block> block);
+  void ReplaceBlock(const std::string& instance, const std::string& type,
+                    const BlockOptions& options);
+
   /// Puts a one-input one-output block in series on `signal`: the block reads `signal`, its
   /// output is the new signal "<instance>.out", and every block input and model output that read
   /// `signal` reads "<instance>.out" instead. Parameters start at their neutral values. The

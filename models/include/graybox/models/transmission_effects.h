@@ -15,15 +15,20 @@
 // joint's values when the block is added): when the joint's Ke or d move afterwards (a re-fit
 // that frees them), the result is Ke' delta + Ke (DZ(delta) - delta) + ..., a backlash whose
 // gap is seen through the stiffness at which it was added. At b = 0, DZ(delta) = delta and
-// DZ'(delta) = 1 exactly, so Delta = 0 exactly. Note that the joint's own tau_s output does not
-// include Delta.
+// DZ'(delta) = 1 exactly, so Delta = 0 exactly. The joint's own tau_s output does not include
+// Delta: the third output carries it, written into the signal the joint's tau_s goes to, so that
+// a measured joint torque (a torque sensor in the spring) is the backlash form's too. Without it
+// the data's torque channel, which a backlash empties inside the gap, kept the first-order
+// effect of b out of sight (a series elastic actuator with a hard backlash scored LM 0.0005).
 //
 // ---- Listing format ---------------------------------------------------------------------------
 // "transmission.backlash"
 //   inputs  q_m [rad] (-1, 1), q_l [rad] (-1, 1), qd_m [rad/s] (-20, 20), qd_l [rad/s] (-20, 20)
 //           (the joint's states)
-//   outputs tau_motor [N m] (-0.4, 0.4) and tau_load [N m] (-0.4, 0.4), both Delta: connect
-//           tau_motor as "-<the joint's tau_m signal>" and tau_load as "<its tau_ext signal>"
+//   outputs tau_motor [N m] (-0.4, 0.4), tau_load [N m] (-0.4, 0.4) and tau_joint [N m]
+//           (-0.4, 0.4), all three Delta: connect tau_motor as "-<the joint's tau_m signal>",
+//           tau_load as "<its tau_ext signal>" and tau_joint as the joint's tau_s output is
+//           connected ("" when it is not)
 //   b [rad]  2e-3 (0, 0.5)  neutral 0   half width of the dead zone (total play 2b)
 //   options "stiffness" Ke [N m/rad] (> 0, required), "damping" d [N m s/rad] (>= 0, default 0),
 //   "smoothing" eps [rad] (> 0, default kDefaultBacklashSmoothing = 1e-4).

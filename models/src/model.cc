@@ -592,6 +592,35 @@ StateSpaceModel Model::Build() const {
                                   Names(loop) + "; expected a state between them");
     }
   }
+  // A contribution subtracted from a signal that no block reads and no output reports, and a
+  // model input nothing reads, are mistakes: a typo in a connection ("-forc" for "-force")
+  // would disconnect a friction block silently (its parameters never move). A signal written
+  // with "+" and read by nobody is an internal signal (reports, the diagnosis' regimes); ""
+  // leaves a block output unconnected on purpose.
+  {
+    std::set<std::string> read(outputs_.begin(), outputs_.end());
+    for (const auto& inst : instances_) read.insert(inst.inputs.begin(), inst.inputs.end());
+    read.erase("");
+    const std::vector<std::string> read_list(read.begin(), read.end());
+    for (const auto& inst : instances_) {
+      for (std::size_t k = 0; k < inst.outputs.size(); ++k) {
+        if (inst.outputs[k].empty()) continue;
+        const auto [target, sign] = Connection(inst.outputs[k]);
+        if (sign > 0 || read.count(target)) continue;
+        throw std::invalid_argument(
+            "model '" + name_ + "': block '" + inst.name + "' output '" +
+            inst.block->info().outputs[k].name + "' subtracts from signal '" + target +
+            "', which no block reads and no output reports" + Suggest(target, read_list) +
+            " (write \"\" to leave the output unconnected)");
+      }
+    }
+    for (const auto& in : inputs_) {
+      if (read.count(in.info.name)) continue;
+      throw std::invalid_argument("model '" + name_ + "': input '" + in.info.name +
+                                  "' is read by no block and reported by no output" +
+                                  Suggest(in.info.name, read_list));
+    }
+  }
   auto value = [&](const std::string& s) {
     Expr sum(0.0);
     for (const Expr& c : contributions[s]) sum += c;

@@ -216,6 +216,24 @@ TEST_F(GeneratedCli, CheckPrintsTheDiagnosisAxesAndRejectsAnUnknownEffect) {
       << bad.output;
 }
 
+// A friction block subtracting from a misspelt signal would be disconnected silently: check and
+// fit refuse it with the place, the block, the signal and the closest signal that is read.
+TEST_F(GeneratedCli, ATypoInAConnectionIsAnErrorNotADisconnectedBlock) {
+  std::string text = PushedProblem();
+  const std::string right = "outputs = [\"-force\"]";
+  text.replace(text.find(right), right.size(), "outputs = [\"-forc\"]");
+  WriteText(dir_ / "pushed.toml", text);
+  for (const std::string command : {"check pushed.toml", "fit pushed.toml --out out"}) {
+    const RunResult r = RunGraybox(command, dir_ / "typo.log", dir_.path().string());
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("pushed.toml:"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("block 'friction' output 'tau' subtracts from signal 'forc', which no "
+                            "block reads and no output reports; did you mean 'force'?"),
+              std::string::npos)
+        << r.output;
+  }
+}
+
 TEST_F(GeneratedCli, FitRecoversKnownParametersAndSimulateReadsTheResult) {
   const RunResult r = Fit(PushedProblem(), "out", "--check-derivatives");
   ASSERT_EQ(r.exit_code, 0) << r.output;

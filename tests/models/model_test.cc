@@ -312,5 +312,27 @@ TEST(Model, ReplaceBlockKeepsConnectionsAndParameters) {
   EXPECT_EQ(r.Build().NumParameters(), after.NumParameters());
 }
 
+// A contribution subtracted from a signal nobody reads, and an input nobody reads, are errors
+// naming the block (or input) and the closest read signal; a signal written with "+" and read by
+// nobody is an internal signal.
+TEST(Model, UnreadSubtractionsAndInputsAreRejected) {
+  Model m = BrakedInertia();
+  m.AddBlock("drag", std::make_shared<Brake>(), {"load.omega"}, {"-torqe"});
+  try {
+    m.Build();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("block 'drag' output"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("subtracts from signal 'torqe'"), std::string::npos)
+        << e.what();
+  }
+  Model unused = BrakedInertia();
+  unused.AddInput("spare", "N m");
+  EXPECT_THROW(unused.Build(), std::invalid_argument);
+  Model internal = BrakedInertia();
+  internal.AddBlock("watch", std::make_shared<Brake>(), {"load.omega"}, {"brake_torque"});
+  EXPECT_NO_THROW(internal.Build());
+}
+
 }  // namespace
 }  // namespace graybox::models

@@ -273,8 +273,10 @@ class Model {
   std::vector<std::string> Signals() const;
 
   /// Builds the symbolic state-space model. Throws std::invalid_argument for a signal that is
-  /// read but never produced (with a suggestion), an algebraic loop (listing the blocks), or no
-  /// states and no outputs.
+  /// read but never produced (with a suggestion), an algebraic loop (listing the blocks), a block
+  /// output subtracted ("-name") from a signal that no block reads and no output reports (a
+  /// typo; with the closest read signal), a model input nothing reads, or no states and no
+  /// outputs. A signal written with "+" and read by nobody is an internal signal (allowed).
   StateSpaceModel Build() const;
 
  private:

@@ -67,15 +67,47 @@ const char* Version();
 
 // ---- pieces shared by the commands -------------------------------------------------------------
 
-/// Parameter values from a result.json ("parameters": {name: {"value": v}}) or a TOML file of
-/// "<instance>.<param>" = value (top level or in [parameters]); names checked against the model.
-/// Throws estimators::ProblemFileError.
+/// Parameter values from a result.json ("parameters": {name: {"value": v}}), a run folder holding
+/// one, or a TOML file of "<instance>.<param>" = value (top level or in [parameters]); names
+/// checked against the model, values finite and within the problem's bounds, at least one.
+/// Throws estimators::ProblemFileError naming the file (and key).
 std::map<std::string, double> LoadParameterValues(const std::string& path,
                                                   const models::StateSpaceModel& model);
 
 /// Writes `content` to `path` through a temporary file in the same folder and a rename, so a
 /// reader never sees a half-written file. Throws std::runtime_error on I/O failure.
 void WriteFileAtomically(const std::string& path, const std::string& content);
+
+/// The outputs of one run as one unit: they are written into a fresh staging folder beside the
+/// output folder DIR (".<name>.partial-<pid>") and swapped into place by Commit(), so that a
+/// reader sees the earlier run whole or this run whole, never a mix (no file of an earlier run
+/// is left beside this run's).
+///   RunOutput out(o.out);          // before solving: checks that DIR can be written
+///   Write(out.path() + "/result.json", ...);
+///   Progress(out.Commit());        // "... replaced the earlier run in DIR" / "... created DIR"
+/// Destroyed without Commit() (an error before the outputs were complete), the staging folder
+/// is removed and DIR is untouched.
+class RunOutput {
+ public:
+  /// Throws std::invalid_argument (exit 2) with the reason when DIR is empty or an existing
+  /// file, or when the staging folder cannot be created beside it (a parent that is a file or
+  /// not writable).
+  explicit RunOutput(const std::string& dir);
+  ~RunOutput();
+  RunOutput(const RunOutput&) = delete;
+  RunOutput& operator=(const RunOutput&) = delete;
+  /// The folder to write into (the staging folder).
+  const std::string& path() const { return staging_; }
+  /// Moves the staging folder to DIR; an earlier DIR is moved aside first and removed after.
+  /// Returns what happened, for the log. When DIR cannot be replaced (it or its parent is
+  /// immutable) it throws std::runtime_error saying that the earlier run is untouched and
+  /// where this run's outputs are (the staging folder is kept).
+  std::string Commit();
+
+ private:
+  std::string dir_, staging_;
+  bool done_ = false;
+};
 
 /// SVG plots of a split: measured against simulated outputs, and their residuals.
 std::string PlotOutputs(const estimators::SplitEvaluation& e, const models::StateSpaceModel& model);

@@ -58,18 +58,6 @@ int Guarded(const std::function<int()>& body) {
   }
 }
 
-// The output directory must be a directory or not exist yet (it is created after validation).
-void CheckOutputDirectory(const std::string& dir) {
-  namespace fs = std::filesystem;
-  if (dir.empty()) throw std::invalid_argument("--out: expected an output directory, got ''");
-  std::error_code ec;
-  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
-    throw std::invalid_argument("--out '" + dir +
-                                "': expected a directory (or a path to create), got an existing "
-                                "file");
-  }
-}
-
 void PrintProblem(const Problem& problem, const std::vector<SplitData>& splits) {
   const models::StateSpaceModel& m = problem.built;
   int free = 0;
@@ -86,12 +74,12 @@ void PrintProblem(const Problem& problem, const std::vector<SplitData>& splits) 
   }
 }
 
-void Finish(const std::string& out, const std::string& json_name, RunReport* report,
-            const Timer& total) {
+void Finish(RunOutput* out, const std::string& json_name, RunReport* report, const Timer& total) {
   report->seconds.emplace_back("total", total.Seconds());
-  const auto written = WriteOutputs(out, json_name, *report);
-  Progress("  wrote " + written.back() + " and " + std::to_string(written.size() - 1) +
-           " plots and traces in " + out);
+  const auto written = WriteOutputs(out->path(), json_name, *report);
+  const std::string what = out->Commit();
+  Progress("  wrote " + json_name + " and " + std::to_string(written.size() - 1) +
+           " plots and traces: " + what);
 }
 
 std::string Join(const std::vector<std::string>& words, const std::string& separator) {
@@ -140,19 +128,13 @@ int RunFit(const CommandOptions& o) {
     report.problem = &problem;
     report.seed = problem.estimation.seed;
     Progress("graybox fit: problem '" + problem.name + "' (" + o.problem + ")");
-    CheckOutputDirectory(o.out);
+    RunOutput out(o.out);
     if (!o.params.empty()) {
       // --from: the starting values of an earlier run (a candidate the diagnosis tried, a fit
       // to continue); which parameters are free and their bounds stay the problem file's.
       const std::map<std::string, double> values = LoadParameterValues(o.params, problem.built);
       for (const auto& [name, value] : values) {
         models::ModelParameter& p = problem.built.parameters[problem.built.ParameterIndex(name)];
-        if (p.free && (value < p.lower || value > p.upper)) {
-          throw estimators::ProblemFileError(
-              estimators::SourceLocation{o.params, "parameters", 0, 0},
-              "'" + name + "' = " + Sci(value) + ": expected a starting value within the " +
-                  "problem's bounds [" + Sci(p.lower) + ", " + Sci(p.upper) + "]");
-        }
         p.value = value;
         problem.model.SetParameter(name, value);
       }
@@ -161,6 +143,7 @@ int RunFit(const CommandOptions& o) {
                o.params);
     }
     const std::vector<SplitData> splits = estimators::LoadData(problem);
+    CheckSplitFileNames(splits);
     PrintProblem(problem, splits);
     report.seconds.emplace_back("load", t.Seconds());
     estimators::FitOptions options;
@@ -187,7 +170,7 @@ int RunFit(const CommandOptions& o) {
                            ? "the solver stopped with status " + fit.solver_result.status
                            : fit.solver_result.message;
     }
-    Finish(o.out, "result.json", &report, total);
+    Finish(&out, "result.json", &report, total);
     if (report.exit_code != kExitSuccess) {
       std::cerr << "graybox: solver failure: " << report.message << "\n";
     }
@@ -206,9 +189,10 @@ int RunSimulate(const CommandOptions& o) {
     const Problem problem = estimators::LoadProblem(o.problem);
     report.problem = &problem;
     Progress("graybox simulate: problem '" + problem.name + "' (" + o.problem + ")");
-    CheckOutputDirectory(o.out);
+    RunOutput out(o.out);
     const std::map<std::string, double> values = LoadParameterValues(o.params, problem.built);
     const std::vector<SplitData> splits = estimators::LoadData(problem);
+    CheckSplitFileNames(splits);
     PrintProblem(problem, splits);
     report.seconds.emplace_back("load", t.Seconds());
     report.initial_parameters = problem.built.ParameterValues();
@@ -235,7 +219,7 @@ int RunSimulate(const CommandOptions& o) {
       }
     }
     report.seconds.emplace_back("simulate", t.Seconds());
-    Finish(o.out, "simulation.json", &report, total);
+    Finish(&out, "simulation.json", &report, total);
     if (report.exit_code != kExitSuccess) std::cerr << "graybox: " << report.message << "\n";
     return report.exit_code;
   });
@@ -246,25 +230,25 @@ int RunDiagnose(const CommandOptions& o) {
     const Timer total;
     const Problem problem = estimators::LoadProblem(o.problem);
     Progress("graybox diagnose: problem '" + problem.name + "' (" + o.problem + ")");
-    CheckOutputDirectory(o.out);
+    RunOutput out(o.out);
     diagnosis::DiagnoseOptions options = DiagnoseOptionsFrom(o);
     options.Validate();
     const std::vector<SplitData> splits = estimators::LoadData(problem);
+    CheckSplitFileNames(splits);
     PrintProblem(problem, splits);
     options.progress = StampedProgress(total, "  ");
     const diagnosis::DiagnosisReport d = diagnosis::Diagnose(problem, splits, options);
     std::cout << d.FullReport();
     namespace fs = std::filesystem;
-    fs::create_directories(o.out);
     std::vector<std::pair<std::string, std::string>> run = RunMetadata(o);
     run.emplace_back("seed", std::to_string(problem.estimation.seed));
-    // report.html first, diagnosis.json last: a reader that finds the JSON finds the page too.
-    WriteFileAtomically((fs::path(o.out) / "report.html").string(),
+    WriteFileAtomically((fs::path(out.path()) / "report.html").string(),
                         diagnosis::DiagnosisHtml(d, run));
-    WriteFileAtomically((fs::path(o.out) / "diagnosis.json").string(),
+    WriteFileAtomically((fs::path(out.path()) / "diagnosis.json").string(),
                         diagnosis::DiagnosisJson(d, run));
+    const std::string what = out.Commit();
     Progress("verdict: " + d.verdict);
-    Progress("  wrote diagnosis.json and report.html in " + o.out + " (" + Sci(total.Seconds()) +
+    Progress("  wrote diagnosis.json and report.html: " + what + " (" + Sci(total.Seconds()) +
              " s)");
     return kExitSuccess;
   });
@@ -273,7 +257,7 @@ int RunDiagnose(const CommandOptions& o) {
 int RunBenchWithheld(const CommandOptions& o) {
   return Guarded([&]() -> int {
     const Timer total;
-    CheckOutputDirectory(o.out);
+    RunOutput out(o.out);
     bench::WithheldBenchOptions options;
     options.cases.fast_subset = o.fast;
     options.name_filters = o.cases;
@@ -285,20 +269,20 @@ int RunBenchWithheld(const CommandOptions& o) {
     std::cout << "confusion (rows: withheld, columns: top-ranked):\n"
               << b.ConfusionTable() << b.Summary();
     namespace fs = std::filesystem;
-    fs::create_directories(fs::path(o.out) / "cases");
+    fs::create_directories(fs::path(out.path()) / "cases");
     for (const bench::WithheldRecord& r : b.records) {
       if (r.diagnosis_json.empty()) continue;
       std::string file = r.name;
       for (std::size_t p = file.find('/'); p != std::string::npos; p = file.find('/', p)) {
         file.replace(p, 1, "__");
       }
-      WriteFileAtomically((fs::path(o.out) / "cases" / (file + ".json")).string(),
+      WriteFileAtomically((fs::path(out.path()) / "cases" / (file + ".json")).string(),
                           r.diagnosis_json);
     }
     // bench.json last: a reader that finds it finds every case's diagnosis too.
-    WriteFileAtomically((fs::path(o.out) / "bench.json").string(),
+    WriteFileAtomically((fs::path(out.path()) / "bench.json").string(),
                         bench::WithheldBenchJson(b, RunMetadata(o)));
-    Progress("wrote " + (fs::path(o.out) / "bench.json").string());
+    Progress("wrote bench.json and the cases' diagnoses: " + out.Commit());
     return kExitSuccess;
   });
 }
@@ -308,6 +292,7 @@ int RunCheck(const CommandOptions& o) {
     const Problem problem = estimators::LoadProblem(o.problem);
     Progress("graybox check: problem '" + problem.name + "' (" + o.problem + ")");
     const std::vector<SplitData> splits = estimators::LoadData(problem);
+    CheckSplitFileNames(splits);
     PrintProblem(problem, splits);
     const models::StateSpaceModel& m = problem.built;
     for (const auto& p : m.parameters) {

@@ -1,6 +1,8 @@
 // Parameter values for `graybox simulate --params FILE`: a result.json or a TOML table.
 #include <toml++/toml.h>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -42,8 +44,9 @@ std::map<std::string, double> FromJson(const std::string& path, const std::strin
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw ProblemFileError(At(path), std::string("JSON syntax error: ") + e.what());
+  } catch (const nlohmann::json::exception& e) {
+    // Syntax errors and numbers out of range (1e999) alike.
+    throw ProblemFileError(At(path), std::string("JSON error: ") + e.what());
   }
   if (!doc.is_object() || !doc.contains("parameters") || !doc["parameters"].is_object()) {
     throw ProblemFileError(At(path),
@@ -98,8 +101,20 @@ std::map<std::string, double> FromToml(const std::string& path, const std::strin
 
 }  // namespace
 
-std::map<std::string, double> LoadParameterValues(const std::string& path,
+std::map<std::string, double> LoadParameterValues(const std::string& given,
                                                   const models::StateSpaceModel& model) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::string path = given;
+  // A run folder: its result.json.
+  if (fs::is_directory(given, ec)) {
+    path = (fs::path(given) / "result.json").string();
+    if (!fs::is_regular_file(path, ec)) {
+      throw ProblemFileError(At(given),
+                             "expected a parameter file (result.json or TOML) or a "
+                             "run folder with a result.json, got a folder without one");
+    }
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ProblemFileError(At(path), "cannot read the parameter file: file not found");
   std::ostringstream text;
@@ -107,8 +122,27 @@ std::map<std::string, double> LoadParameterValues(const std::string& path,
   const std::string s = text.str();
   const auto first = s.find_first_not_of(" \t\r\n");
   const bool json = path.size() >= 5 && path.compare(path.size() - 5, 5, ".json") == 0;
-  if (json || (first != std::string::npos && s[first] == '{')) return FromJson(path, s, model);
-  return FromToml(path, s, model);
+  const std::map<std::string, double> values =
+      json || (first != std::string::npos && s[first] == '{') ? FromJson(path, s, model)
+                                                              : FromToml(path, s, model);
+  if (values.empty()) {
+    throw ProblemFileError(
+        At(path), "expected at least one parameter value of model '" + model.name + "', got none");
+  }
+  // Values outside the problem's bounds are refused (a fixed parameter's bounds included: they
+  // are the physical range the problem file states).
+  for (const auto& [name, value] : values) {
+    const models::ModelParameter& p = model.parameters[model.ParameterIndex(name)];
+    if (value < p.lower || value > p.upper) {
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "'%s' = %.6g: expected a value within the problem's bounds "
+                    "[%.6g, %.6g]",
+                    name.c_str(), value, p.lower, p.upper);
+      throw ProblemFileError(At(path, 0, "parameters"), line);
+    }
+  }
+  return values;
 }
 
 }  // namespace graybox::app

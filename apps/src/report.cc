@@ -5,8 +5,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <stdexcept>
 
 namespace graybox::app {
 
@@ -234,6 +236,27 @@ std::string TraceCsv(const estimators::SplitEvaluation& e, const models::StateSp
     os << "\n";
   }
   return os.str();
+}
+
+void CheckSplitFileNames(const std::vector<estimators::SplitData>& splits) {
+  std::map<std::string, std::string> by_file;
+  for (const estimators::SplitData& s : splits) {
+    for (const char c : s.name) {
+      const auto u = static_cast<unsigned char>(c);
+      if (u < 0x20 || u == 0x7f) {
+        throw std::invalid_argument("split '" + SafeName(s.name) + "' (data '" + s.data_name +
+                                    "'): expected a printable name, got control characters");
+      }
+    }
+    const std::string file = SafeName(s.name);
+    const auto [it, fresh] = by_file.emplace(file, s.name);
+    if (!fresh) {
+      throw std::invalid_argument("splits '" + it->second + "' and '" + s.name +
+                                  "' would write the same plot and trace files ('" + file +
+                                  "_outputs.svg'); expected split names that differ in letters, "
+                                  "digits, '-', '_' or '.'");
+    }
+  }
 }
 
 std::vector<std::string> WriteOutputs(const std::string& dir, const std::string& json_name,

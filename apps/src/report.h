@@ -43,6 +43,11 @@ std::string TraceCsv(const estimators::SplitEvaluation& e, const models::StateSp
 
 /// Writes the JSON as `json_name`, the plots in DIR/plots and the traces in DIR/traces, each
 /// atomically. Creates DIR when needed. Returns the paths written.
+/// Refuses (std::invalid_argument, exit 2) split names that WriteOutputs' file names would not
+/// keep apart ("a/b" and "a_b" both become "a_b_outputs.svg") or that hold control characters,
+/// naming both splits. Call it before solving.
+void CheckSplitFileNames(const std::vector<estimators::SplitData>& splits);
+
 std::vector<std::string> WriteOutputs(const std::string& dir, const std::string& json_name,
                                       const RunReport& report);
 

@@ -1,0 +1,100 @@
+// The outputs of a run are one unit (issue 12): a second run into the same folder replaces the
+// first whole (no file of the first is left beside the second's), an output folder that cannot
+// be written is refused before solving, split names whose files would collide are refused, and
+// --params is checked (a folder without result.json, a number out of range, a value outside the
+// problem's bounds).
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace graybox::apps_testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+class RunOutputCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    WriteText(dir_ / "pushed.csv", PushedCsv());
+    WriteText(dir_ / "pushed.toml", PushedProblem());
+  }
+  RunResult Graybox(const std::string& arguments, const std::string& log = "log.txt") {
+    return RunGraybox(arguments, dir_ / log, dir_.path().string());
+  }
+  ScratchDir dir_;
+};
+
+TEST_F(RunOutputCli, ASecondRunReplacesTheFirstWhole) {
+  ASSERT_EQ(Graybox("fit pushed.toml --out out").exit_code, 0);
+  // A file of an earlier run (an equation plot the next run does not make), and a folder.
+  WriteText(dir_ / "out/plots/stale_equation.svg", "<svg/>");
+  const RunResult again = Graybox("fit pushed.toml --out out", "again.txt");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("replaced the earlier run in out"), std::string::npos)
+      << again.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out/plots/stale_equation.svg"));
+  EXPECT_TRUE(fs::exists(dir_ / "out/result.json"));
+  EXPECT_TRUE(fs::exists(dir_ / "out/plots/first_outputs.svg"));
+  // No staging or previous folder is left beside it.
+  for (const auto& entry : fs::directory_iterator(dir_.path())) {
+    EXPECT_EQ(entry.path().filename().string().find(".out."), std::string::npos) << entry.path();
+  }
+}
+
+TEST_F(RunOutputCli, AnOutputFolderThatCannotBeWrittenIsRefusedBeforeSolving) {
+  WriteText(dir_ / "file", "not a folder");
+  const RunResult r = Graybox("fit pushed.toml --out file/sub");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out 'file/sub'"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("ipopt"), std::string::npos) << r.output;  // nothing was solved
+}
+
+TEST_F(RunOutputCli, SplitNamesWhoseFilesCollideAreRefused) {
+  std::string text = PushedProblem();
+  const std::string splits =
+      "splits = [{ name = \"first\", role = \"estimation\", end = 150 },\n"
+      "          { name = \"last\", role = \"validation\", begin = 150 }]";
+  const auto at = text.find(splits);
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, splits.size(),
+               "splits = [{ name = \"a/b\", role = \"estimation\", end = 150 },\n"
+               "          { name = \"a_b\", role = \"validation\", begin = 150 }]");
+  WriteText(dir_ / "pushed.toml", text);
+  const RunResult r = Graybox("fit pushed.toml --out out");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("splits 'a/b' and 'a_b' would write the same plot and trace files"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+TEST_F(RunOutputCli, ParameterFilesAreChecked) {
+  ASSERT_EQ(Graybox("fit pushed.toml --out out").exit_code, 0);
+  // A run folder holds its result.json; a folder without one is bad input.
+  EXPECT_EQ(Graybox("simulate pushed.toml --params out --out sim").exit_code, 0);
+  fs::create_directories(dir_ / "empty");
+  const RunResult folder = Graybox("simulate pushed.toml --params empty --out sim2", "folder.txt");
+  EXPECT_EQ(folder.exit_code, 2) << folder.output;
+  EXPECT_NE(folder.output.find("a folder without one"), std::string::npos) << folder.output;
+  // A number out of double's range names the file.
+  WriteText(dir_ / "huge.json", "{\"parameters\": {\"load.mass\": 1e999}}");
+  const RunResult huge = Graybox("simulate pushed.toml --params huge.json --out sim3", "huge.txt");
+  EXPECT_EQ(huge.exit_code, 2) << huge.output;
+  EXPECT_NE(huge.output.find("huge.json"), std::string::npos) << huge.output;
+  // A value outside the problem's bounds (the mass' lower bound is above 0).
+  WriteText(dir_ / "negative.toml", "\"load.mass\" = -1.0\n");
+  const RunResult out_of_bounds =
+      Graybox("simulate pushed.toml --params negative.toml --out sim4", "bounds.txt");
+  EXPECT_EQ(out_of_bounds.exit_code, 2) << out_of_bounds.output;
+  EXPECT_NE(out_of_bounds.output.find("'load.mass' = -1: expected a value within the problem's "
+                                      "bounds"),
+            std::string::npos)
+      << out_of_bounds.output;
+  EXPECT_FALSE(fs::exists(dir_ / "sim4"));
+}
+
+}  // namespace
+}  // namespace graybox::apps_testing

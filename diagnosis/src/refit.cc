@@ -146,14 +146,17 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       return !std::isfinite(b) || t < b;
     };
     // A second start of stage A from the problem's own start values of the nominal parameters
-    // (the user's guesses in the first round) where the warm start may sit in the nominal fit's
-    // corner: the warm re-fit failed, or a nominal free parameter ends at a bound in the nominal
-    // fit or in it (a nominal model that absorbs a missing effect runs into such corners, and a
-    // re-fit started there stays: a series elastic joint fitted without its true inertia went to
-    // Ke = 0.057 against 8.459 N m/rad, and the true structure's re-fit from there to a damping of
-    // 0.52 against 0.004 N m s/rad, validating 5 times worse than from the guesses).
+    // (the user's guesses in the first round) where the converged warm start may sit in the
+    // nominal fit's corner: a nominal free parameter ends at a bound in the nominal fit or in it
+    // (a nominal model that absorbs a missing effect runs into such corners, and a re-fit started
+    // there stays: a series elastic joint fitted without its true inertia went to Ke = 0.057
+    // against 8.459 N m/rad, and the true structure's re-fit from there to a damping of 0.52
+    // against 0.004 N m s/rad, validating 5 times worse than from the guesses). A warm start that
+    // did not converge is left to the grid and stage B, which start from it (a second start
+    // there spent a Dahl re-fit's budget before its grid recovered it).
     {
-      bool corner = !a.IsSolutionUsable() || !a.solver_result.success;
+      bool corner = false;
+      const bool converged = a.IsSolutionUsable() && a.solver_result.success;
       std::vector<int> nominal_free;
       for (int i = 0; i < problem.built.NumParameters(); ++i) {
         const models::ModelParameter& p = problem.built.parameters[i];
@@ -162,13 +165,13 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         }
         nominal_free.push_back(i);
         corner = corner || nominal.Parameter(p.name).at_bound;
-        corner = corner || (a.IsSolutionUsable() && a.Parameter(p.name).at_bound);
+        corner = corner || (converged && a.Parameter(p.name).at_bound);
       }
       bool differs = false;
       for (const int i : nominal_free) {
         differs = differs || problem.built.parameters[i].value != nominal.values[i];
       }
-      if (corner && differs && budget_left()) {
+      if (converged && corner && differs && budget_left()) {
         for (const int i : nominal_free) {
           const models::ModelParameter& p = problem.built.parameters[i];
           session->SetParameterValue(p.name, std::min(std::max(p.value, p.lower), p.upper));
@@ -185,14 +188,21 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         char line[320];
         std::snprintf(line, sizeof(line),
                       "a second start from the problem's start values of the nominal parameters "
-                      "(the warm start %s): validation NRMSE %.6g against %.6g, %s",
-                      a.IsSolutionUsable() && a.solver_result.success
-                          ? "or the nominal fit left a nominal parameter at a bound"
-                          : "failed",
+                      "(a nominal parameter at a bound): validation NRMSE %.6g against %.6g, %s",
                       ValidationNrmse(cold.evaluations, role), ValidationNrmse(a.evaluations, role),
                       better ? "kept" : "not kept");
         out.stages.push_back(line);
-        if (better) a = std::move(cold);
+        if (better) {
+          a = std::move(cold);
+        } else {
+          // Values set after `a` was solved win over a warm start from it (FitSession::Solve):
+          // put a's back, so the grid and stage B start from it.
+          for (const int i : nominal_free) {
+            const std::string& name = problem.built.parameters[i].name;
+            session->SetParameterValue(name, a.Parameter(name).value);
+          }
+          for (const auto& q : c.screened) session->SetParameterValue(q, a.Parameter(q).value);
+        }
       }
     }
     // The profile over each shape grid: stage A at every other grid value (a fixed value

@@ -113,8 +113,8 @@
 //      augmentation names the option). The score picked a Coulomb level's softest sign on a
 //      pendulum whose truth had a hard one; that re-fit validated 20 times worse than the
 //      steepest sign's, which a Stribeck curve with fs = fc then fitted in its place.
-//      Second start: when this warm-started solve failed, or a nominal free parameter ends at a
-//      bound in the nominal fit or in it, stage A is solved once more from the problem's own
+//      Second start: when this warm-started solve converged but a nominal free parameter ends at
+//      a bound in the nominal fit or in it, stage A is solved once more from the problem's own
 //      start values of the nominal parameters (the user's guesses in the first round; the
 //      previous round's estimates later) with the candidate's at the same start, and kept when
 //      it validates better (RefitResult::stages says which). A nominal model that lacks an effect

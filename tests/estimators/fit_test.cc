@@ -102,6 +102,29 @@ TEST(Fit, UnknownNamesAreErrorsWithSuggestions) {
   EXPECT_THROW(fit.Evaluation("test"), std::invalid_argument);
 }
 
+// A one-sample estimation split under multiple shooting cannot determine the closed loop's free
+// parameters: the session refuses it before solving (it used to "succeed" at mass 216 kg).
+TEST(Fit, AnEstimationSplitTooShortForTheFreeParametersIsRefused) {
+  const Problem problem = LoadProblem(kProblems + "emps_closed_loop.toml");
+  std::vector<SplitData> one;
+  for (const SplitData& s : LoadData(problem)) {
+    if (s.role != SplitRole::kEstimation) continue;
+    SplitData cut = s;
+    cut.experiment = Slice(s.experiment, 0, 1);
+    cut.experiment.name = s.name;
+    one.push_back(cut);
+  }
+  ASSERT_FALSE(one.empty());
+  try {
+    FitSession session(problem, one, Quiet());
+    FAIL() << "expected an exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("expected at least as many residuals"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("(1 samples)"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Fit, FourFitsAtOnceGiveTheResultsOfFourInARow) {
   // Two Ipopt fits (serialised by the backend's lock) and two Ceres fits (parallel), each on its
   // own problem copy, with different fixed drive gains so that the four results differ.

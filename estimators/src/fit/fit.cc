@@ -136,6 +136,36 @@ struct FitSession::State {
     ++formulations;
     stale = false;
     pending_starts.clear();
+    CheckDetermined();
+  }
+  // The estimation data must be able to determine the free variables: at least as many
+  // residuals as free variables less equality constraints (a one-sample split under multiple
+  // shooting otherwise "succeeds" at any parameter values).
+  void CheckDetermined() const {
+    const Nlp& nlp = *formulation.nlp;
+    int free = 0;
+    for (int k = 0; k < nlp.NumVariables(); ++k) free += nlp.lbw()[k] < nlp.ubw()[k] ? 1 : 0;
+    int equalities = 0;
+    if (nlp.NumConstraints() > 0) {
+      const Eigen::VectorXd lbg = nlp.lbg(), ubg = nlp.ubg();
+      for (Eigen::Index k = 0; k < lbg.size(); ++k) equalities += lbg[k] == ubg[k] ? 1 : 0;
+    }
+    const int needed = free - equalities;
+    if (nlp.NumResiduals() >= needed) return;
+    std::string names;
+    long samples = 0;
+    for (const SplitData* s : EstimationSplits()) {
+      names += (names.empty() ? "'" : ", '") + s->name + "'";
+      samples += s->experiment.NumSamples();
+    }
+    throw std::invalid_argument(
+        "problem '" + problem.name + "': the estimation splits " + names + " (" +
+        std::to_string(samples) + " samples) give " + std::to_string(nlp.NumResiduals()) +
+        " residuals for " + std::to_string(needed) + " free variables of " +
+        problem.estimation.method + " (" + std::to_string(free) + " free, " +
+        std::to_string(equalities) +
+        " equality constraints): expected at least as many residuals; give longer estimation "
+        "splits or fix parameters");
   }
   // Position of model parameter i among the NLP's variables, or -1 when it is not one.
   int VariableOf(int i) const {

@@ -195,7 +195,9 @@ SplitData MakeSplit(const std::string& name, SplitRole role, Experiment experime
 class FitSession {
  public:
   /// Formulates problem.estimation.method on the estimation splits. Throws std::invalid_argument
-  /// (ProblemFileError where a place in the file is known) for bad options, data or bounds.
+  /// (ProblemFileError where a place in the file is known) for bad options, data or bounds, and
+  /// when the estimation splits give fewer residuals than the NLP's free variables less its
+  /// equality constraints (data that cannot determine the free parameters).
   FitSession(const Problem& problem, std::vector<SplitData> splits, FitOptions options = {});
   ~FitSession();
   FitSession(FitSession&&) noexcept;

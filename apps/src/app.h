@@ -74,6 +74,11 @@ const char* Version();
 std::map<std::string, double> LoadParameterValues(const std::string& path,
                                                   const models::StateSpaceModel& model);
 
+/// `text` with its control characters (other than newline and tab) written as \xNN, so that
+/// text from files (CSV headers, TOML strings) echoed in a message cannot drive the terminal
+/// (an escape sequence that retitles it). Every line the command prints goes through it.
+std::string Printable(const std::string& text);
+
 /// Writes `content` to `path` through a temporary file in the same folder and a rename, so a
 /// reader never sees a half-written file. Throws std::runtime_error on I/O failure.
 void WriteFileAtomically(const std::string& path, const std::string& content);

@@ -36,7 +36,7 @@ class Timer {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
-void Progress(const std::string& line) { std::cout << line << std::endl; }
+void Progress(const std::string& line) { std::cout << Printable(line) << std::endl; }
 
 std::string Sci(double v) {
   char buf[64];
@@ -50,10 +50,10 @@ int Guarded(const std::function<int()>& body) {
   try {
     return body();
   } catch (const std::invalid_argument& e) {
-    std::cerr << "graybox: error: " << e.what() << "\n";
+    std::cerr << "graybox: error: " << Printable(e.what()) << "\n";
     return kExitBadInput;
   } catch (const std::exception& e) {
-    std::cerr << "graybox: internal error: " << e.what() << "\n";
+    std::cerr << "graybox: internal error: " << Printable(e.what()) << "\n";
     return kExitInternalError;
   }
 }
@@ -159,7 +159,7 @@ int RunFit(const CommandOptions& o) {
     report.evaluations = fit.evaluations;
     report.derivative_checks = fit.derivative_checks;
     if (fit.has_uncertainty) {
-      std::cout << fit.uncertainty.FullReport();
+      std::cout << Printable(fit.uncertainty.FullReport());
     } else {
       Progress("  no parameter uncertainty: " + fit.uncertainty_error);
     }
@@ -172,7 +172,7 @@ int RunFit(const CommandOptions& o) {
     }
     Finish(&out, "result.json", &report, total);
     if (report.exit_code != kExitSuccess) {
-      std::cerr << "graybox: solver failure: " << report.message << "\n";
+      std::cerr << "graybox: solver failure: " << Printable(report.message) << "\n";
     }
     return report.exit_code;
   });
@@ -220,7 +220,9 @@ int RunSimulate(const CommandOptions& o) {
     }
     report.seconds.emplace_back("simulate", t.Seconds());
     Finish(&out, "simulation.json", &report, total);
-    if (report.exit_code != kExitSuccess) std::cerr << "graybox: " << report.message << "\n";
+    if (report.exit_code != kExitSuccess) {
+      std::cerr << "graybox: " << Printable(report.message) << "\n";
+    }
     return report.exit_code;
   });
 }
@@ -238,7 +240,7 @@ int RunDiagnose(const CommandOptions& o) {
     PrintProblem(problem, splits);
     options.progress = StampedProgress(total, "  ");
     const diagnosis::DiagnosisReport d = diagnosis::Diagnose(problem, splits, options);
-    std::cout << d.FullReport();
+    std::cout << Printable(d.FullReport());
     namespace fs = std::filesystem;
     std::vector<std::pair<std::string, std::string>> run = RunMetadata(o);
     run.emplace_back("seed", std::to_string(problem.estimation.seed));
@@ -267,7 +269,7 @@ int RunBenchWithheld(const CommandOptions& o) {
     Progress("graybox bench withheld" + std::string(o.fast ? " (fast subset)" : ""));
     const bench::WithheldBench b = bench::RunWithheldBench(options);
     std::cout << "confusion (rows: withheld, columns: top-ranked):\n"
-              << b.ConfusionTable() << b.Summary();
+              << Printable(b.ConfusionTable() + b.Summary());
     namespace fs = std::filesystem;
     fs::create_directories(fs::path(out.path()) / "cases");
     for (const bench::WithheldRecord& r : b.records) {
@@ -353,7 +355,7 @@ int RunBlocks(const CommandOptions& o) {
         options.words[key] = value;
       }
     }
-    std::cout << models::DescribeBlock(o.block_type, options);
+    std::cout << Printable(models::DescribeBlock(o.block_type, options));
     return kExitSuccess;
   });
 }

@@ -2,7 +2,7 @@
 // first whole (no file of the first is left beside the second's), an output folder that cannot
 // be written is refused before solving, split names whose files would collide are refused, and
 // --params is checked (a folder without result.json, a number out of range, a value outside the
-// problem's bounds).
+// problem's bounds), and control characters from files are escaped in messages.
 #include <filesystem>
 #include <string>
 
@@ -94,6 +94,20 @@ TEST_F(RunOutputCli, ParameterFilesAreChecked) {
             std::string::npos)
       << out_of_bounds.output;
   EXPECT_FALSE(fs::exists(dir_ / "sim4"));
+}
+
+// Text from files is echoed with its control characters escaped: a CSV header holding a terminal
+// escape sequence (one that retitles the terminal) reaches the message as \x1b ... \x07.
+TEST_F(RunOutputCli, ControlCharactersFromFilesAreEscapedInMessages) {
+  std::string csv = PushedCsv();
+  const std::string header = "time,force,pos";
+  csv.replace(csv.find(header), header.size(), "time,force,\x1b]0;owned\x07");
+  WriteText(dir_ / "pushed.csv", csv);
+  const RunResult r = Graybox("check pushed.toml");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(r.output.find('\x1b'), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find('\x07'), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\\x1b]0;owned\\x07"), std::string::npos) << r.output;
 }
 
 }  // namespace

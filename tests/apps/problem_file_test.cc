@@ -266,6 +266,23 @@ TEST_F(GeneratedProblem, VariablesOfDifferentLengthsAreRejected) {
   EXPECT_TRUE(Contains(e.what(), "has 100 samples, expected 99")) << e.what();
 }
 
+// A scale of 1e308 would freeze a free parameter (the solver moves value / scale): refused at
+// the parameter's line; a fixed parameter's scale is not used and not checked.
+TEST_F(GeneratedProblem, AScaleThatFreezesAFreeParameterIsRefused) {
+  const std::string text = PushedProblem("[estimation]\nmethod = \"multiple_shooting\"\n",
+                                         "\"load.mass\" = { value = 1.0, scale = 1e308 }\n");
+  const ProblemFileError e = ErrorOf([&] { Parse(text); });
+  EXPECT_TRUE(Contains(e.what(),
+                       "'scale': expected a scale within a factor of 1e8 of the "
+                       "parameter's magnitude"))
+      << e.what();
+  EXPECT_EQ(e.where().line, LineOf(text, "\"load.mass\""));
+  EXPECT_NO_THROW(
+      Parse(PushedProblem("[estimation]\nmethod = \"multiple_shooting\"\n",
+                          "\"load.mass\" = { value = 1.0, scale = 1e308, free = false }\n"
+                          "\"friction.fv\" = { value = 1.0, scale = 1.0 }\n")));
+}
+
 TEST_F(GeneratedProblem, InfeasibleBoundsAndOutOfBoundValues) {
   const std::string text =
       PushedProblem("[estimation]\nmethod = \"multiple_shooting\"\n",

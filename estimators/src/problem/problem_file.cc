@@ -198,6 +198,22 @@ void ApplyParameter(const Section& parameters, const std::string& key, const std
   par->value = v;
   if (scale) par->scale = *scale;
   if (free) par->free = *free;
+  // A scale far from the parameter's magnitude freezes it for the solver (it moves value / scale:
+  // scale = 1e308 leaves it at 1e-308) or blows its variable up: refused for a free parameter.
+  if (scale && par->free) {
+    double magnitude = std::fabs(v);
+    if (std::isfinite(lo)) magnitude = std::max(magnitude, std::fabs(lo));
+    if (std::isfinite(hi)) magnitude = std::max(magnitude, std::fabs(hi));
+    constexpr double kMaxScaleRatio = 1e8;
+    if (magnitude > 0.0 &&
+        (*scale > kMaxScaleRatio * magnitude || *scale * kMaxScaleRatio < magnitude)) {
+      parameters.Fail(key, "parameter '" + name +
+                               "': 'scale': expected a scale within a factor of 1e8 of the " +
+                               "parameter's magnitude " + Format(magnitude) +
+                               " (its value and finite bounds), got " + Format(*scale) +
+                               ": the solver moves value / scale and could not move it");
+    }
+  }
 }
 
 // A block created from the registry for the table `b` (keys "type" and "options"): an unknown

@@ -113,7 +113,16 @@ TEST(MultipleShooting, BadInputIsRejectedWithItsPlace) {
   }
   ex.y = Eigen::MatrixXd::Zero(10, 1);
   ex.y(3, 0) = std::nan("");
-  EXPECT_THROW(BuildMultipleShooting(FrictionDriveModel(), {ex}, {setup}), std::invalid_argument);
+  ex.y_names = {"speed"};
+  // The message names the channel, the sample and its time.
+  try {
+    BuildMultipleShooting(FrictionDriveModel(), {ex}, {setup});
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("output 'speed' at sample 3 (t = 0.03 s) is NaN"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

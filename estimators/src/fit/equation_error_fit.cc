@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <map>
@@ -146,15 +147,18 @@ Eigen::MatrixXd StatesFromSpec(const estimators::Problem& problem, const Equatio
   if (spec.lowpass_hz > 0.0) {
     const int padding = spec.lowpass_padding < 0 ? 3 * spec.lowpass_order : spec.lowpass_padding;
     if (n <= padding || n < 3) {
-      throw std::invalid_argument("split '" + experiment.name + "': the low-pass filter needs " +
-                                  "more than " + std::to_string(padding) +
-                                  " samples (its edge padding), got " + std::to_string(n));
+      throw std::invalid_argument("[estimation.equation_error] lowpass_hz: split '" +
+                                  experiment.name + "': the low-pass filter needs more than " +
+                                  std::to_string(padding) + " samples (its edge padding), got " +
+                                  std::to_string(n));
     }
     if (!(spec.lowpass_hz < 0.5 / dt)) {
-      throw std::invalid_argument(
-          "equation_error.lowpass_hz: expected a cut-off below the "
-          "Nyquist frequency " +
-          std::to_string(0.5 / dt) + " Hz, got " + std::to_string(spec.lowpass_hz));
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "[estimation.equation_error] lowpass_hz: expected a cut-off below the Nyquist "
+                    "frequency %.6g Hz of split '%s', got %.6g",
+                    0.5 / dt, experiment.name.c_str(), spec.lowpass_hz);
+      throw std::invalid_argument(buf);
     }
   }
   if (n < 2) {

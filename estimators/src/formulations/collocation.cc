@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "formulations/experiment_checks.h"
 #include "graybox/estimators/integrators/integrators.h"
 #include "graybox/estimators/nlp/weights.h"
 
@@ -118,8 +119,12 @@ CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
                                   std::to_string(nu) + ", y of N x " + std::to_string(ny) +
                                   " (N >= 2) and x0 of size " + std::to_string(nx));
     }
-    if (!ex.u.allFinite() || !ex.y.allFinite() || !x0.allFinite()) {
-      throw std::invalid_argument("experiment '" + ex.name + "': data contains NaN or Inf");
+    if (!ex.u.allFinite() || !ex.y.allFinite()) {
+      throw std::invalid_argument("experiment '" + ex.name +
+                                  "': data contains NaN or Inf: " + internal::NonFiniteSample(ex));
+    }
+    if (!x0.allFinite()) {
+      throw std::invalid_argument("experiment '" + ex.name + "': the initial state is not finite");
     }
   }
   const ParameterMap map = ParameterMap::FromModel(model.parameters);

@@ -1,11 +1,33 @@
 #include "formulations/experiment_checks.h"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "graybox/estimators/nlp/weights.h"
 
 namespace graybox::estimators::internal {
+
+std::string NonFiniteSample(const Experiment& ex) {
+  for (const bool input : {true, false}) {
+    const Eigen::MatrixXd& m = input ? ex.u : ex.y;
+    const std::vector<std::string>& names = input ? ex.u_names : ex.y_names;
+    for (Eigen::Index k = 0; k < m.rows(); ++k) {
+      for (Eigen::Index j = 0; j < m.cols(); ++j) {
+        const double v = m(k, j);
+        if (std::isfinite(v)) continue;
+        const std::string channel =
+            j < static_cast<Eigen::Index>(names.size()) ? names[j] : "column " + std::to_string(j);
+        char buf[160];
+        const double t = ex.IsUniform() ? ex.t0 + k * ex.dt : ex.time[k];
+        std::snprintf(buf, sizeof buf, " at sample %ld (t = %.6g s) is %s", static_cast<long>(k), t,
+                      std::isnan(v) ? "NaN" : (v > 0 ? "inf" : "-inf"));
+        return std::string(input ? "input '" : "output '") + channel + "'" + buf;
+      }
+    }
+  }
+  return "";
+}
 
 void CheckExperiments(const models::StateSpaceModel& model,
                       const std::vector<Experiment>& experiments,
@@ -40,7 +62,7 @@ void CheckExperiments(const models::StateSpaceModel& model,
                                   std::to_string(ex.y.cols()));
     }
     if (!ex.u.allFinite() || !ex.y.allFinite()) {
-      throw std::invalid_argument(where + ": data contains NaN or Inf");
+      throw std::invalid_argument(where + ": data contains NaN or Inf: " + NonFiniteSample(ex));
     }
     if (setup.x0.size() != nx || !setup.x0.allFinite()) {
       throw std::invalid_argument(where + ": expected a finite initial state of size " +

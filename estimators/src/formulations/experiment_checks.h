@@ -20,6 +20,10 @@ void CheckExperiments(const models::StateSpaceModel& model,
                       const std::vector<Experiment>& experiments,
                       const std::vector<ExperimentSetup>& setups, const std::string& caller);
 
+/// "input 'force' at sample 12 (t = 0.12 s) is inf" for the first sample of ex.u or ex.y that is
+/// not finite (inputs first), "" when every sample is finite: the place for a data error.
+std::string NonFiniteSample(const Experiment& ex);
+
 /// `weights` when given (size ny, else std::invalid_argument naming `field`), otherwise
 /// 1 / std of each output channel over all experiments.
 Eigen::VectorXd ResolveOutputWeights(const Eigen::VectorXd& weights, int ny,

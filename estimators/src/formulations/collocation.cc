@@ -165,8 +165,11 @@ CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
       guess = SimulateFixedStep(model, setups[e].x0, ex.u, values, ex.dt, step).x;
     }
     if (!guess.allFinite()) {
-      throw std::invalid_argument("experiment '" + ex.name +
-                                  "': the initial simulation diverges; give a state_guess");
+      throw std::invalid_argument(
+          "experiment '" + ex.name +
+          "': the simulation at the initial parameter values that guesses the collocation states "
+          "diverges; give start values that simulate ([model.parameters]), or "
+          "ExperimentSetup::state_guess in C++");
     }
     Eigen::MatrixXi sv(n, nx), cv((n - 1) * deg, nx);
     for (int k = 0; k < n; ++k) {

@@ -124,8 +124,11 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
     if (guess.size() == 0)
       guess = SimulateFixedStep(model, setup.x0, ex.u, values, ex.dt, options.step).x;
     if (!guess.allFinite()) {
-      throw std::invalid_argument("experiment '" + ex.name +
-                                  "': the initial simulation diverges; give a state_guess");
+      throw std::invalid_argument(
+          "experiment '" + ex.name +
+          "': the simulation at the initial parameter values that guesses the shooting nodes "
+          "diverges; give start values that simulate, [estimation.multiple_shooting] node_guess "
+          "= \"data\" (nodes from the measurements), or ExperimentSetup::state_guess in C++");
     }
     Eigen::MatrixXi nodes = Eigen::MatrixXi::Constant(num_segments, nx, -1);
     for (int j = 0; j < num_segments; ++j) {

@@ -136,7 +136,17 @@ CsvTable ParseCsv(const std::string& text, const CsvOptions& options, const std:
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (IsBlank(line)) continue;
+    if (line.size() > kMaxCsvLineBytes) {
+      throw std::invalid_argument(where + ": line " + std::to_string(line_number) +
+                                  ": expected at most " + std::to_string(kMaxCsvLineBytes) +
+                                  " characters, got " + std::to_string(line.size()));
+    }
     rows.push_back({line_number, SplitFields(line, options.delimiter)});
+    if (static_cast<int>(rows.back().fields.size()) > kMaxCsvFields) {
+      throw std::invalid_argument(where + ": line " + std::to_string(line_number) +
+                                  ": expected at most " + std::to_string(kMaxCsvFields) +
+                                  " fields, got " + std::to_string(rows.back().fields.size()));
+    }
   }
   if (header_fields < 0) {
     if (!names.empty()) {
@@ -261,6 +271,18 @@ CsvTable ReadCsv(const std::string& path, const CsvOptions& options) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
     throw std::invalid_argument("csv_file: '" + path + "': file not found");
+  }
+  // A device or a pipe (/dev/zero) never ends, and a file beyond the cap would not fit in
+  // memory as text plus parsed rows: both refused before reading.
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw std::invalid_argument("csv_file: '" + path +
+                                "': expected a regular file, got a directory, device or pipe");
+  }
+  const std::uintmax_t bytes = std::filesystem::file_size(path, ec);
+  if (!ec && bytes > kMaxCsvBytes) {
+    throw std::invalid_argument("csv_file: '" + path + "': expected at most " +
+                                std::to_string(kMaxCsvBytes) + " bytes, got " +
+                                std::to_string(bytes) + " (convert it to a .mat file)");
   }
   std::ifstream file(path, std::ios::binary);
   if (!file) {

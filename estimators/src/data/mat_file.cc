@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -182,6 +183,29 @@ struct MatFile::Impl {
     throw std::invalid_argument("mat_file: '" + path + "': " + what);
   }
 
+  // A numeric variable whose declared size could not fit in the file even at zlib's best
+  // compression (about 1032:1) is a corrupt header: refused before matio allocates it (a 72 kB
+  // file claiming 2e8 x 1 doubles took 4.7 GB).
+  void CheckDeclaredSize(const std::string& path, const std::string& name) const {
+    constexpr double kMaxCompression = 1100.0;
+    constexpr double kElementBytes = 8.0;  // an upper bound for every numeric class
+    std::error_code ec;
+    const double file_bytes = static_cast<double>(std::filesystem::file_size(path, ec));
+    if (ec) return;
+    for (const MatVariableInfo& info : variables) {
+      if (info.name != name || info.class_name == "struct" || info.class_name == "cell") continue;
+      double elements = 1.0;
+      for (const std::size_t d : info.dims) elements *= static_cast<double>(d);
+      const double declared = elements * kElementBytes * (info.is_complex ? 2.0 : 1.0);
+      if (declared > kMaxCompression * file_bytes + 4096.0) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "%.3g bytes in a file of %.3g bytes", declared, file_bytes);
+        Fail(path, "truncated or corrupt MAT file: variable '" + name + "' declares " +
+                       info.Describe() + ", " + buf);
+      }
+    }
+  }
+
   // The most recently read top-level variable: reading several fields of one struct (compressed
   // v5 structs are decoded as a whole) then costs one read.
   mutable VarPtr cache;
@@ -207,6 +231,7 @@ struct MatFile::Impl {
     if (cache == nullptr || cache_name != parts[0]) {
       cache.reset();
       cache_name.clear();
+      CheckDeclaredSize(path, parts[0]);
       InstallMatioLogger();
       cache.reset(Mat_VarRead(mat, parts[0].c_str()));
       if (cache == nullptr) {

@@ -28,6 +28,9 @@
 // A missing file gives "csv_file: 'x.csv': file not found".
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+
 #include <string>
 #include <vector>
 
@@ -43,6 +46,13 @@ enum class CsvEmptyCells {
                       // (ROS exports where topics stop at different times); an empty cell
                       // followed by a complete row is still an error
 };
+
+/// Limits that keep a hostile file from exhausting memory: ReadCsv refuses a file above
+/// kMaxCsvBytes (and anything that is not a regular file, such as /dev/zero), ParseCsv a line
+/// above kMaxCsvLineBytes characters or kMaxCsvFields fields, each naming the file (and line).
+inline constexpr std::uintmax_t kMaxCsvBytes = std::uintmax_t{1} << 30;  // 1 GiB
+inline constexpr std::size_t kMaxCsvLineBytes = std::size_t{1} << 20;    // 1 MiB
+inline constexpr int kMaxCsvFields = 10000;
 
 struct CsvOptions {
   char delimiter = ',';

@@ -1,0 +1,104 @@
+// Hostile data files are refused before they exhaust memory (issue 12): a device given as a CSV
+// file (/dev/zero never ends), a CSV line or field count beyond the caps, and a MAT file whose
+// header declares far more data than the file could hold at any compression.
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "graybox/estimators/data/csv_file.h"
+#include "graybox/estimators/data/mat_file.h"
+
+namespace graybox::estimators {
+namespace {
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+std::string TempFile(const std::string& name) {
+  return (std::filesystem::temp_directory_path() /
+          ("graybox_hostile_" + std::to_string(::getpid()) + "_" + name))
+      .string();
+}
+
+TEST(HostileFiles, ADeviceIsNotReadAsACsvFile) {
+  const std::string e = ErrorOf([] { ReadCsv("/dev/zero", {}); });
+  EXPECT_NE(e.find("'/dev/zero': expected a regular file"), std::string::npos) << e;
+}
+
+TEST(HostileFiles, CsvLinesAndFieldsAreCapped) {
+  const std::string long_line = "a,b\n" + std::string(kMaxCsvLineBytes + 1, '1') + ",2\n";
+  const std::string e = ErrorOf([&] { ParseCsv(long_line, {}, "long.csv"); });
+  EXPECT_NE(e.find("line 2: expected at most 1048576 characters"), std::string::npos) << e;
+  std::string wide = "x\n";
+  for (int k = 0; k <= kMaxCsvFields; ++k) wide += "1,";
+  wide += "1\n";
+  const std::string f = ErrorOf([&] {
+    CsvOptions o;
+    o.has_header = false;
+    ParseCsv(wide, o, "wide.csv");
+  });
+  EXPECT_NE(f.find("expected at most 10000 fields"), std::string::npos) << f;
+}
+
+// A MAT v5 file with one double variable 'vir' whose header declares 2e8 x 1 elements
+// (1.6 GB) and which ends after the header: refused as corrupt before matio allocates.
+TEST(HostileFiles, AMatHeaderThatClaimsMoreThanTheFileHoldsIsCorrupt) {
+  std::vector<char> bytes(128, ' ');
+  const char text[] = "MATLAB 5.0 MAT-file, hostile header test";
+  std::memcpy(bytes.data(), text, sizeof(text) - 1);
+  for (int k = 116; k < 124; ++k) bytes[k] = 0;  // subsystem offset
+  bytes[124] = 0x00;
+  bytes[125] = 0x01;  // version 0x0100 (little-endian)
+  bytes[126] = 'I';
+  bytes[127] = 'M';
+  auto put32 = [&](std::uint32_t v) {
+    for (int k = 0; k < 4; ++k) bytes.push_back(static_cast<char>((v >> (8 * k)) & 0xff));
+  };
+  constexpr std::uint32_t kMiInt8 = 1, kMiInt32 = 5, kMiUint32 = 6, kMiDouble = 9, kMiMatrix = 14,
+                          kDoubleClass = 6;
+  constexpr std::uint32_t kRows = 200000000, kDataBytes = kRows * 8u;
+  put32(kMiMatrix);
+  put32(16 + 16 + 16 + 8 + kDataBytes);  // flags, dims, name, data tag, data
+  put32(kMiUint32);
+  put32(8);
+  put32(kDoubleClass);
+  put32(0);
+  put32(kMiInt32);
+  put32(8);
+  put32(kRows);
+  put32(1);
+  put32(kMiInt8);
+  put32(3);
+  bytes.insert(bytes.end(), {'v', 'i', 'r', 0, 0, 0, 0, 0});
+  put32(kMiDouble);
+  put32(kDataBytes);
+  bytes.insert(bytes.end(), 64, 0);  // a few values, then the file ends
+  const std::string path = TempFile("claims.mat");
+  {
+    std::ofstream out(path, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  }
+  const std::string e = ErrorOf([&] { MatFile(path).ReadMatrix("vir"); });
+  std::filesystem::remove(path);
+  EXPECT_NE(e.find("truncated or corrupt MAT file: variable 'vir' declares double 200000000x1"),
+            std::string::npos)
+      << e;
+}
+
+}  // namespace
+}  // namespace graybox::estimators

@@ -68,6 +68,12 @@ int main(int argc, char** argv) {
                       "start from the parameter values of an earlier result.json (or a TOML "
                       "table \"inst.param\" = value); free/fixed and bounds stay the file's");
   fit_cmd->add_flag("--verbose,-v", fit.verbose, "print the solver's iterations");
+  fit_cmd
+      ->add_option("--max-seconds", fit.max_seconds,
+                   "wall-time limit of the solve in seconds (default 0: the problem's "
+                   "[estimation] max_seconds, else none); a solve that reaches it ends with "
+                   "exit 3 and its outputs written")
+      ->check(CLI::NonNegativeNumber);
   fit_cmd->add_flag("--check-derivatives", fit.check_derivatives,
                     "check the derivatives of the model and of the assembled NLP by finite "
                     "differences before solving");

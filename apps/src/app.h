@@ -33,6 +33,7 @@ struct CommandOptions {
   std::string params;    // simulate --params / fit --from: result.json or TOML parameter file
   bool verbose = false;  // solver iteration lines
   bool check_derivatives = false;
+  double max_seconds = 0.0;  // fit --max-seconds: wall-time limit of the solve (0: none)
   std::string command_line;  // recorded in result.json
   // diagnose only.
   int max_effects = 3;

@@ -149,6 +149,7 @@ int RunFit(const CommandOptions& o) {
     estimators::FitOptions options;
     options.verbose = o.verbose;
     options.check_derivatives = o.check_derivatives;
+    options.max_solve_seconds = o.max_seconds;
     options.progress = Progress;
     report.fit = estimators::Fit(problem, splits, options);
     report.has_fit = true;

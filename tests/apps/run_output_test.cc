@@ -96,6 +96,20 @@ TEST_F(RunOutputCli, ParameterFilesAreChecked) {
   EXPECT_FALSE(fs::exists(dir_ / "sim4"));
 }
 
+// A wall-time limit ends the solve with exit 3 and every output written (the limit is checked at
+// each iteration: a microsecond stops the first one); the problem file's max_seconds likewise.
+TEST_F(RunOutputCli, AWallTimeLimitEndsTheSolveWithItsOutputs) {
+  const RunResult r = Graybox("fit pushed.toml --out out --max-seconds 1e-6");
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_TRUE(fs::exists(dir_ / "out/result.json"));
+  std::string text = PushedProblem();
+  text.replace(text.find("solver = \"ipopt\"\n"), 17, "solver = \"ipopt\"\nmax_seconds = 1e-6\n");
+  WriteText(dir_ / "limited.toml", text);
+  const RunResult p = Graybox("fit limited.toml --out limited", "limited.txt");
+  EXPECT_EQ(p.exit_code, 3) << p.output;
+  EXPECT_TRUE(fs::exists(dir_ / "limited/result.json"));
+}
+
 // Text from files is echoed with its control characters escaped: a CSV header holding a terminal
 // escape sequence (one that retitles the terminal) reaches the message as \x1b ... \x07.
 TEST_F(RunOutputCli, ControlCharactersFromFilesAreEscapedInMessages) {

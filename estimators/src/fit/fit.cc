@@ -366,7 +366,12 @@ FitResult FitSession::Solve(const FitResult* start) {
   t = Timer();
   {
     Heartbeat heartbeat(s.options.progress, s.options.progress_interval_seconds, spec.solver);
-    const double max_seconds = s.options.max_solve_seconds;
+    // The smaller of the two positive limits: the caller's and the problem's.
+    double max_seconds = s.options.max_solve_seconds;
+    const double problem_limit = s.problem.estimation.max_seconds;
+    if (problem_limit > 0.0 && (max_seconds <= 0.0 || problem_limit < max_seconds)) {
+      max_seconds = problem_limit;
+    }
     auto record = [&heartbeat, max_seconds](const IterationSummary& it) {
       return heartbeat.Record(it, max_seconds);
     };

@@ -383,9 +383,9 @@ void ParseEstimation(const Section& root, Problem* problem) {
   auto est = root.Sub("estimation");
   if (!est) root.Fail("", "missing table [estimation]: expected at least method = '...'");
   const Section& e = *est;
-  e.Allow({"method", "solver", "seed", "scheme", "substeps", "newton_iterations", "integrator",
-           "multiple_shooting", "collocation", "equation_error", "n_step", "ipopt", "ceres",
-           "regularization"});
+  e.Allow({"method", "solver", "seed", "max_seconds", "scheme", "substeps", "newton_iterations",
+           "integrator", "multiple_shooting", "collocation", "equation_error", "n_step", "ipopt",
+           "ceres", "regularization"});
   EstimationSpec& spec = problem->estimation;
   spec.where = e.Where();
   if (!e.Has("method")) e.Fail("", "missing key 'method'");
@@ -394,6 +394,7 @@ void ParseEstimation(const Section& root, Problem* problem) {
   const bool least_squares = spec.method == "equation_error" || spec.method == "n_step";
   spec.solver = e.Choice("solver", {"ipopt", "ceres"}).value_or(least_squares ? "ceres" : "ipopt");
   spec.seed = static_cast<unsigned>(e.Integer("seed", 0, 4294967295L).value_or(1));
+  spec.max_seconds = e.PositiveNumber("max_seconds").value_or(0.0);
   if (auto v = e.Choice("scheme", {"rk4", "backward_euler", "trapezoidal", "radau_iia"})) {
     spec.step.scheme = ParseStepScheme(*v);
   }

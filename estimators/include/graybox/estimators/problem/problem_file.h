@@ -204,6 +204,10 @@ struct EstimationSpec {
   /// Seed of every random draw of a fit (recorded in result.json; the current formulations
   /// draw nothing).
   unsigned seed = 1;
+  /// Wall-time limit [s] of each solve ([estimation] max_seconds; 0: none): a solve that reaches
+  /// it stops at its last iterate and reports it (SolverResult::success false; `graybox fit`
+  /// exits 3 with its outputs written). FitOptions::max_solve_seconds, when smaller, wins.
+  double max_seconds = 0.0;
   /// The fixed-step map of every fixed-step simulation: multiple shooting's segments, the
   /// fixed-step integrator, the N-step metric and loss, `graybox simulate` (keys `scheme`:
   /// rk4 | backward_euler | trapezoidal | radau_iia, `substeps`, `newton_iterations`).

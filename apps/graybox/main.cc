@@ -34,10 +34,11 @@ void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
                   "candidate effects to propose, comma-separated (default: every effect but "
                   "elasticity)")
       ->delimiter(',');
-  cmd->add_option("--refit-seconds", o->refit_seconds,
-                  "budget of each re-fit in seconds, over all its solves (default 0: 20 x the "
-                  "nominal solve, at least 10 s); a re-fit whose first stage it stops is reported "
-                  "as not converged")
+  cmd->add_option(
+         "--refit-seconds", o->refit_seconds,
+         "CPU-time budget of each re-fit in seconds, over all its solves (default 0: 20 x the "
+         "nominal solve, at least 10 s); a re-fit whose first stage it stops is reported "
+         "as not converged")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-reference", o->no_reference,
                 "skip the flexible reference (no gap, no 'gap closed'; saves its fit, which "

@@ -19,11 +19,14 @@ CandidateScore Score(const estimators::Problem& problem,
                      const std::vector<estimators::SplitData>& splits,
                      const estimators::FitResult& nominal, const Candidate& candidate);
 
+/// CPU time [s] of the calling thread (the re-fit budget's clock).
+double ThreadCpuSeconds();
+
 /// AIC and BIC of a fit from its cost (RSS = 2 cost) and free parameters; NaN without residuals.
 void InformationCriteria(const estimators::FitResult& fit, double* aic, double* bic);
 
-/// The re-fit of one screened candidate (screening.h, "Re-fits"), within `max_seconds` of wall
-/// time over all its solves.
+/// The re-fit of one screened candidate (screening.h, "Re-fits"), within `max_seconds` of CPU
+/// time of the calling thread over all its solves.
 RefitResult Refit(const estimators::Problem& problem,
                   const std::vector<estimators::SplitData>& splits,
                   const estimators::FitResult& nominal, const CandidateScore& screened,

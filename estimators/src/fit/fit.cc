@@ -5,6 +5,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <ctime>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -34,11 +35,21 @@ std::string Sci(double v, int digits = 4) {
 }
 
 // Prints a progress line every `interval` seconds while a solve runs, with the latest iteration.
+// CPU time [s] of the calling thread.
+double ThreadCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 class Heartbeat {
  public:
   Heartbeat(const std::function<void(const std::string&)>& progress, double interval,
             std::string solver)
-      : progress_(progress), interval_(interval), solver_(std::move(solver)) {
+      : progress_(progress),
+        interval_(interval),
+        solver_(std::move(solver)),
+        cpu_start_(ThreadCpuSeconds()) {
     if (progress_) thread_ = std::thread([this] { Run(); });
   }
   ~Heartbeat() {
@@ -50,12 +61,15 @@ class Heartbeat {
     if (thread_.joinable()) thread_.join();
   }
   // Keeps the latest iteration for the progress line; false (stop) once the solve has run for
-  // more than `max_seconds` (> 0) since it started (checked at each iteration).
-  bool Record(const IterationSummary& s, double max_seconds) {
+  // more than `max_seconds` (> 0, on the wall clock) or `max_cpu_seconds` (> 0, CPU time of the
+  // thread that constructed this object and calls Record: the solving thread) since it started
+  // (checked at each iteration).
+  bool Record(const IterationSummary& s, double max_seconds, double max_cpu_seconds) {
     std::lock_guard<std::mutex> lock(mutex_);
     latest_ = s;
     has_latest_ = true;
-    return !(max_seconds > 0.0 && timer_.Seconds() > max_seconds);
+    if (max_seconds > 0.0 && timer_.Seconds() > max_seconds) return false;
+    return !(max_cpu_seconds > 0.0 && ThreadCpuSeconds() - cpu_start_ > max_cpu_seconds);
   }
 
  private:
@@ -79,6 +93,7 @@ class Heartbeat {
   const std::function<void(const std::string&)>& progress_;
   double interval_;
   std::string solver_;
+  double cpu_start_;
   Timer timer_;
   std::mutex mutex_;
   std::condition_variable cv_;
@@ -366,14 +381,17 @@ FitResult FitSession::Solve(const FitResult* start) {
   t = Timer();
   {
     Heartbeat heartbeat(s.options.progress, s.options.progress_interval_seconds, spec.solver);
-    // The smaller of the two positive limits: the caller's and the problem's.
-    double max_seconds = s.options.max_solve_seconds;
+    // The caller's limit on its clock; the problem's on the wall clock (the smaller wins when
+    // both are wall time).
+    const bool cpu = s.options.budget_clock == FitOptions::BudgetClock::kThreadCpu;
+    double max_seconds = cpu ? 0.0 : s.options.max_solve_seconds;
+    const double max_cpu_seconds = cpu ? s.options.max_solve_seconds : 0.0;
     const double problem_limit = s.problem.estimation.max_seconds;
     if (problem_limit > 0.0 && (max_seconds <= 0.0 || problem_limit < max_seconds)) {
       max_seconds = problem_limit;
     }
-    auto record = [&heartbeat, max_seconds](const IterationSummary& it) {
-      return heartbeat.Record(it, max_seconds);
+    auto record = [&heartbeat, max_seconds, max_cpu_seconds](const IterationSummary& it) {
+      return heartbeat.Record(it, max_seconds, max_cpu_seconds);
     };
     ipopt.callback = record;
     ceres.callback = record;

@@ -191,16 +191,21 @@ struct ScreeningOptions {
   /// first only when its validation NRMSE is lower than the simpler one's by more than
   /// nested_margin x the nominal validation NRMSE (>= 0).
   double nested_margin = 0.02;
-  /// Budget of each re-fit [s], wall time over all its solves (stage A, the profile over the
-  /// shape grids, stage B): each solve may iterate for what is left (FitOptions::
-  /// max_solve_seconds, checked at every iteration); the profile and stage B are skipped once it
-  /// is spent (said in RefitResult::stages). 0: automatic (AutomaticRefitBudget; Diagnose takes it
-  /// once from the problem's nominal fit for every round), 20 times the nominal fit's solve time
-  /// and at least 10 s (a re-fit is a warm-started fit of a model one block larger). A re-fit
-  /// whose stage A is stopped by it is reported as not converged, never ranked: an unattended
-  /// diagnosis must not hang on one candidate (a ripple re-fit on EMPS took 150 s where the
-  /// nominal fit takes 0.8 s). A single iteration is not interrupted (a payload's unmeasured
-  /// angle once made MUMPS reallocate for minutes within one).
+  /// Budget of each re-fit [s], CPU time of the thread that runs it over all its solves (stage A,
+  /// the profile over the shape grids, stage B): each solve may iterate for what is left
+  /// (FitOptions:: max_solve_seconds, checked at every iteration); the profile and stage B are
+  /// skipped once it is spent (said in RefitResult::stages). 0: automatic (AutomaticRefitBudget;
+  /// Diagnose takes it once from the problem's nominal fit for every round), 20 times the nominal
+  /// fit's solve time and at least 10 s (a re-fit is a warm-started fit of a model one block
+  /// larger). A re-fit whose stage A is stopped by it is reported as not converged, never ranked:
+  /// an unattended diagnosis must not hang on one candidate (a ripple re-fit on EMPS took 150 s
+  /// where the nominal fit takes 0.8 s). A single iteration is not interrupted (a payload's
+  /// unmeasured angle once made MUMPS reallocate for minutes within one). CPU time, not wall time:
+  /// waiting for Ipopt's process-wide lock or for a core of a loaded machine does not spend it, so
+  /// the diagnosis' outcome does not depend on the machine's load (with a wall budget a Dahl re-fit
+  /// on the withheld pendulum missed its grid when other work shared the cores). The automatic
+  /// value still comes from the nominal solve's wall time, which load lengthens: a loaded machine
+  /// gets a more generous budget, never a shorter one.
   double refit_max_seconds = 0.0;
   /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
   /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt's own code

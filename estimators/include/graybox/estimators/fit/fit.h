@@ -110,6 +110,13 @@ struct FitOptions {
   /// kUserInterrupt (usable, not converged). A budget for unattended fits such as the diagnosis'
   /// re-fits.
   double max_solve_seconds = 0.0;
+  /// The clock max_solve_seconds is measured on: wall time (kWall), or the CPU time of the thread
+  /// that runs the solve (kThreadCpu: the solver's iterations and the evaluations on that thread;
+  /// time spent waiting for Ipopt's process-wide lock or for the CPU on a loaded machine does not
+  /// count), which makes a budget's outcome independent of the machine's load (the diagnosis'
+  /// re-fits). The problem's [estimation] max_seconds is wall time either way.
+  enum class BudgetClock { kWall, kThreadCpu };
+  BudgetClock budget_clock = BudgetClock::kWall;
   /// Compute the covariance after solving.
   bool compute_covariance = true;
   /// Evaluate every split after solving (simulation, equation error, N-step NRMS).

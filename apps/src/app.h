@@ -79,6 +79,8 @@ std::map<std::string, double> LoadParameterValues(const std::string& path,
 /// text from files (CSV headers, TOML strings) echoed in a message cannot drive the terminal
 /// (an escape sequence that retitles it). Every line the command prints goes through it.
 std::string Printable(const std::string& text);
+/// True for the characters Printable escapes, newline and tab included (bytes < 0x20 and DEL).
+bool IsControlCharacter(char c);
 
 /// Writes `content` to `path` through a temporary file in the same folder and a rename, so a
 /// reader never sees a half-written file. Throws std::runtime_error on I/O failure.

@@ -242,8 +242,7 @@ void CheckSplitFileNames(const std::vector<estimators::SplitData>& splits) {
   std::map<std::string, std::string> by_file;
   for (const estimators::SplitData& s : splits) {
     for (const char c : s.name) {
-      const auto u = static_cast<unsigned char>(c);
-      if (u < 0x20 || u == 0x7f) {
+      if (IsControlCharacter(c)) {
         throw std::invalid_argument("split '" + SafeName(s.name) + "' (data '" + s.data_name +
                                     "'): expected a printable name, got control characters");
       }

@@ -11,12 +11,17 @@
 
 namespace graybox::app {
 
+bool IsControlCharacter(char c) {
+  const auto u = static_cast<unsigned char>(c);
+  return u < 0x20 || u == 0x7f;
+}
+
 std::string Printable(const std::string& text) {
   std::string out;
   out.reserve(text.size());
   for (const char c : text) {
-    const auto u = static_cast<unsigned char>(c);
-    if ((u < 0x20 && c != '\n' && c != '\t') || u == 0x7f) {
+    if (IsControlCharacter(c) && c != '\n' && c != '\t') {
+      const auto u = static_cast<unsigned char>(c);
       char buf[8];
       std::snprintf(buf, sizeof buf, "\\x%02x", u);
       out += buf;
@@ -60,6 +65,12 @@ std::filesystem::path Normalised(const std::string& dir) {
   if (p.filename().empty()) p = p.parent_path();
   return p;
 }
+
+// ".<name>.<tag>-<pid>" beside `target`: this process' staging or previous folder.
+std::filesystem::path Beside(const std::filesystem::path& target, const std::string& tag) {
+  return target.parent_path() / ("." + target.filename().string() + "." + tag + "-" +
+                                 std::to_string(static_cast<long>(::getpid())));
+}
 }  // namespace
 
 RunOutput::RunOutput(const std::string& dir) : dir_(dir) {
@@ -78,8 +89,7 @@ RunOutput::RunOutput(const std::string& dir) : dir_(dir) {
     throw std::invalid_argument("--out '" + dir + "': cannot create its parent folder '" +
                                 parent.string() + "'" + (ec ? ": " + ec.message() : ""));
   }
-  const fs::path staging = parent / ("." + target.filename().string() + ".partial-" +
-                                     std::to_string(static_cast<long>(::getpid())));
+  const fs::path staging = Beside(target, "partial");
   fs::remove_all(staging, ec);
   if (!fs::create_directory(staging, ec) || ec) {
     throw std::invalid_argument("--out '" + dir + "': cannot write beside it in '" +
@@ -97,24 +107,21 @@ RunOutput::~RunOutput() {
 std::string RunOutput::Commit() {
   namespace fs = std::filesystem;
   const fs::path target = Normalised(dir_);
+  // From here the staging folder is either moved into place or kept and named in the error.
+  done_ = true;
   std::error_code ec;
   if (!fs::exists(target, ec)) {
     fs::rename(staging_, target, ec);
     if (ec) {
-      done_ = true;  // keep the outputs
       throw std::runtime_error("cannot move this run's outputs to '" + dir_ + "': " + ec.message() +
                                "; they are in '" + staging_ + "'");
     }
-    done_ = true;
     return "created " + dir_;
   }
-  const fs::path previous =
-      target.parent_path() / ("." + target.filename().string() + ".previous-" +
-                              std::to_string(static_cast<long>(::getpid())));
+  const fs::path previous = Beside(target, "previous");
   fs::remove_all(previous, ec);
   fs::rename(target, previous, ec);
   if (ec) {
-    done_ = true;
     throw std::runtime_error("cannot replace the earlier run in '" + dir_ + "' (" + ec.message() +
                              "): it is left untouched; this run's outputs are in '" + staging_ +
                              "'");
@@ -123,14 +130,12 @@ std::string RunOutput::Commit() {
   if (ec) {
     std::error_code back;
     fs::rename(previous, target, back);
-    done_ = true;
     throw std::runtime_error("cannot move this run's outputs to '" + dir_ + "' (" + ec.message() +
                              "): " +
                              (back ? "the earlier run is in '" + previous.string() + "'"
                                    : std::string("the earlier run is left in place")) +
                              "; this run's outputs are in '" + staging_ + "'");
   }
-  done_ = true;
   fs::remove_all(previous, ec);
   return "replaced the earlier run in " + dir_ +
          (ec ? " (its old files are in '" + previous.string() + "': " + ec.message() + ")"

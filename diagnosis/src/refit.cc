@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <exception>
 #include <functional>
 #include <limits>
@@ -25,16 +24,11 @@
 
 #include "graybox/estimators/integrators/integrator_factory.h"
 #include "graybox/estimators/nlp/nlp.h"
+#include "graybox/util/thread_cpu_time.h"
 
 namespace graybox::diagnosis::internal {
 
 namespace est = graybox::estimators;
-
-double ThreadCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
 void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
   const double n = fit.num_residuals;
@@ -90,14 +84,14 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
     // Ipopt's lock or for a core of a loaded machine does not spend it, so the outcome does not
     // depend on the load (a Dahl re-fit missed its grid on a loaded machine with a wall budget).
     fo.budget_clock = est::FitOptions::BudgetClock::kThreadCpu;
-    const double cpu_started = ThreadCpuSeconds();
+    const double cpu_started = util::ThreadCpuSeconds();
     auto session =
         std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
     // The budget spread over the solves: each may iterate for what is left; false once spent.
     auto elapsed = [&started]() {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     };
-    auto cpu_elapsed = [cpu_started]() { return ThreadCpuSeconds() - cpu_started; };
+    auto cpu_elapsed = [cpu_started]() { return util::ThreadCpuSeconds() - cpu_started; };
     auto budget_left = [&]() {
       if (!(max_seconds > 0.0)) return true;
       const double left = max_seconds - cpu_elapsed();
@@ -168,23 +162,19 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
     // did not converge is left to the grid and stage B, which start from it (a second start
     // there spent a Dahl re-fit's budget before its grid recovered it).
     {
-      bool corner = false;
       const bool converged = a.IsSolutionUsable() && a.solver_result.success;
+      bool corner = false, differs = false;
       std::vector<int> nominal_free;
-      for (int i = 0; i < problem.built.NumParameters(); ++i) {
+      for (int i = 0; converged && i < problem.built.NumParameters(); ++i) {
         const models::ModelParameter& p = problem.built.parameters[i];
         if (!p.free || std::find(c.refit.begin(), c.refit.end(), p.name) != c.refit.end()) {
           continue;
         }
         nominal_free.push_back(i);
-        corner = corner || nominal.Parameter(p.name).at_bound;
-        corner = corner || (converged && a.Parameter(p.name).at_bound);
+        corner = corner || nominal.Parameter(p.name).at_bound || a.Parameter(p.name).at_bound;
+        differs = differs || p.value != nominal.values[i];
       }
-      bool differs = false;
-      for (const int i : nominal_free) {
-        differs = differs || problem.built.parameters[i].value != nominal.values[i];
-      }
-      if (converged && corner && differs && budget_left()) {
+      if (corner && differs && budget_left()) {
         for (const int i : nominal_free) {
           const models::ModelParameter& p = problem.built.parameters[i];
           session->SetParameterValue(p.name, std::min(std::max(p.value, p.lower), p.upper));

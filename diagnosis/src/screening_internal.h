@@ -19,9 +19,6 @@ CandidateScore Score(const estimators::Problem& problem,
                      const std::vector<estimators::SplitData>& splits,
                      const estimators::FitResult& nominal, const Candidate& candidate);
 
-/// CPU time [s] of the calling thread (the re-fit budget's clock).
-double ThreadCpuSeconds();
-
 /// AIC and BIC of a fit from its cost (RSS = 2 cost) and free parameters; NaN without residuals.
 void InformationCriteria(const estimators::FitResult& fit, double* aic, double* bic);
 

@@ -142,6 +142,12 @@ void Model::AddInput(const std::string& signal, const std::string& unit,
   inputs_.push_back({SignalInfo{signal, unit, description, typical_min, typical_max}});
 }
 
+std::vector<std::string> Model::InstanceNames() const {
+  std::vector<std::string> names;
+  for (const auto& inst : instances_) names.push_back(inst.name);
+  return names;
+}
+
 const Model::Instance* Model::FindInstance(const std::string& n) const {
   for (const auto& inst : instances_) {
     if (inst.name == n) return &inst;
@@ -230,10 +236,8 @@ void Model::ReplaceBlock(const std::string& instance, std::shared_ptr<const Bloc
   auto it = std::find_if(instances_.begin(), instances_.end(),
                          [&](const Instance& i) { return i.name == instance; });
   if (it == instances_.end()) {
-    std::vector<std::string> names;
-    for (const auto& i : instances_) names.push_back(i.name);
     throw std::invalid_argument("model '" + name_ + "': ReplaceBlock: unknown block instance '" +
-                                instance + "'" + Suggest(instance, names));
+                                instance + "'" + Suggest(instance, InstanceNames()));
   }
   if (!block) {
     throw std::invalid_argument("model '" + name_ + "': ReplaceBlock('" + instance +
@@ -389,12 +393,10 @@ void Model::InsertForReaders(const std::string& signal, const std::string& insta
     throw std::invalid_argument("model '" + name_ + "': InsertForReaders: unknown signal '" +
                                 signal + "'" + Suggest(signal, known));
   }
-  std::vector<std::string> names;
-  for (const auto& inst : instances_) names.push_back(inst.name);
   for (const auto& r : readers) {
     if (!FindInstance(r)) {
       throw std::invalid_argument("model '" + name_ + "': InsertForReaders: unknown reader '" + r +
-                                  "'" + Suggest(r, names));
+                                  "'" + Suggest(r, InstanceNames()));
     }
   }
   CheckNewInstance(instance);

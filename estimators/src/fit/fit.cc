@@ -5,7 +5,6 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
-#include <ctime>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -13,6 +12,7 @@
 #include "fit/formulation.h"
 #include "graybox/estimators/nlp/nlp_check.h"
 #include "graybox/util/did_you_mean.h"
+#include "graybox/util/thread_cpu_time.h"
 
 namespace graybox::estimators {
 
@@ -35,13 +35,6 @@ std::string Sci(double v, int digits = 4) {
 }
 
 // Prints a progress line every `interval` seconds while a solve runs, with the latest iteration.
-// CPU time [s] of the calling thread.
-double ThreadCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
 class Heartbeat {
  public:
   Heartbeat(const std::function<void(const std::string&)>& progress, double interval,
@@ -49,7 +42,7 @@ class Heartbeat {
       : progress_(progress),
         interval_(interval),
         solver_(std::move(solver)),
-        cpu_start_(ThreadCpuSeconds()) {
+        cpu_start_(util::ThreadCpuSeconds()) {
     if (progress_) thread_ = std::thread([this] { Run(); });
   }
   ~Heartbeat() {
@@ -69,7 +62,7 @@ class Heartbeat {
     latest_ = s;
     has_latest_ = true;
     if (max_seconds > 0.0 && timer_.Seconds() > max_seconds) return false;
-    return !(max_cpu_seconds > 0.0 && ThreadCpuSeconds() - cpu_start_ > max_cpu_seconds);
+    return !(max_cpu_seconds > 0.0 && util::ThreadCpuSeconds() - cpu_start_ > max_cpu_seconds);
   }
 
  private:

@@ -290,6 +290,8 @@ class Model {
     SignalInfo info;
   };
   const Instance* FindInstance(const std::string& name) const;
+  // Every instance name, in the order added (for did-you-mean suggestions).
+  std::vector<std::string> InstanceNames() const;
   // Throws std::invalid_argument unless `instance` is a valid name no instance has yet.
   void CheckNewInstance(const std::string& instance) const;
 

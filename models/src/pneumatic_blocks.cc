@@ -496,6 +496,40 @@ class SliderCrankBlock : public BlockBase<SliderCrankBlock> {
   }
 };
 
+class PistonTorqueBlock : public BlockBase<PistonTorqueBlock> {
+ public:
+  static constexpr const char* kType = "pneumatic.piston_torque";
+
+  explicit PistonTorqueBlock(const BlockOptions& options) {
+    CheckOptionKeys(kType, options, {});
+    info_.type = kType;
+    info_.description =
+        "Joint torque of a double-acting cylinder: the piston force A1 (p1 - p_exhaust) - A2 (p2 - "
+        "p_exhaust) through the slider-crank's lever arm.";
+    info_.reference = "seed 004 eq. 3.6 (with both bore areas), table 3.3";
+    info_.inputs = {
+        Signal("p1", "kPa", "absolute pressure in chamber 1", kPressureMin, kPressureMax,
+               SignalRole::kPressure),
+        Signal("p2", "kPa", "absolute pressure in chamber 2", kPressureMin, kPressureMax,
+               SignalRole::kPressure),
+        Signal("lever_arm", "mm/rad", "dx/dq of the slider-crank", -kLeverArmMax, kLeverArmMax)};
+    info_.outputs = {Signal("torque", "N m", "pneumatic joint torque", -kTorqueMax, kTorqueMax,
+                            SignalRole::kForce)};
+    info_.parameters = {
+        Param("bore_area_1", "mm^2", "bore area A1 of chamber 1 (table 3.3)", pn::kNominalBoreArea1,
+              0.0, kInf),
+        Param("bore_area_2", "mm^2", "annular bore area A2 of chamber 2 (table 3.3)",
+              pn::kNominalBoreArea2, 0.0, kInf),
+        Param("p_exhaust", "kPa", "ambient pressure on the rod cross-section A1 - A2",
+              pn::kAtmosphericPressure, 50.0, 200.0)};
+  }
+
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    a.y[0] = pn::PneumaticTorque(a.u[2], a.u[0], a.u[1], a.p[0], a.p[1], a.p[2]);
+  }
+};
+
 class ArmBlock : public BlockBase<ArmBlock> {
  public:
   static constexpr const char* kType = "pneumatic.arm";
@@ -620,6 +654,8 @@ void RegisterPneumaticBlocks(BlockRegistry& registry) {
       [](const BlockOptions& o) { return std::make_unique<ValveAreaBlock>(o); }, table);
   registry.Register(SliderCrankBlock::kType,
                     [](const BlockOptions& o) { return std::make_unique<SliderCrankBlock>(o); });
+  registry.Register(PistonTorqueBlock::kType,
+                    [](const BlockOptions& o) { return std::make_unique<PistonTorqueBlock>(o); });
   registry.Register(ArmBlock::kType,
                     [](const BlockOptions& o) { return std::make_unique<ArmBlock>(o); });
 }

@@ -281,6 +281,8 @@ TEST(BlockRegistry, AxisSignalsOfMechanicalBlocksHaveTheirRoles) {
       {"pneumatic.ports", {{{"p", R::kPressure}}, {}, {}}},
       {"pneumatic.valve_area", {{{"u", R::kVoltage}}, {}, {}}},
       {"pneumatic.slider_crank", {{{"q", R::kPosition}, {"qd", R::kVelocity}}, {}, {}}},
+      {"pneumatic.piston_torque",
+       {{{"p1", R::kPressure}, {"p2", R::kPressure}}, {{"torque", R::kForce}}, {}}},
       {"pneumatic.arm",
        {{{"u1", R::kVoltage}, {"u2", R::kVoltage}},
         {{"torque", R::kForce}},

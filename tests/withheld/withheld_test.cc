@@ -166,7 +166,8 @@ double NominalValidationNrmse(const WithheldCase& c) {
 TEST(WithheldCases, TheWithheldEffectMattersAndTheTruthReproducesItsData) {
   // One case per base.
   const std::vector<std::string> sample = {"drive_cl/stribeck_exp1.4/s1", "sea/backlash_hard/s1",
-                                           "pendulum/payload_0.5kg/s1"};
+                                           "pendulum/payload_0.5kg/s1",
+                                           "pneumatic/heat_transfer/s1"};
   for (const std::string& name : sample) {
     const WithheldCase c = MakeWithheldCase(name, Seed());
     ExpectTruthReproduces(c);

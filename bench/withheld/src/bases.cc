@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "base_helpers.h"
 #include "graybox/models/drives.h"
 #include "graybox/models/friction.h"
 #include "graybox/models/mechanics.h"
@@ -14,76 +15,6 @@
 
 namespace graybox::bench::internal {
 namespace {
-
-bool Has(const std::vector<std::string>& w, const std::string& e) {
-  return std::find(w.begin(), w.end(), e) != w.end();
-}
-
-bool HasParameter(const models::Model& m, const std::string& name) {
-  for (const models::ModelParameter& p : m.parameters()) {
-    if (p.name == name) return true;
-  }
-  return false;
-}
-
-// A base parameter: its true value, its bounds and scale in the nominal problem, free or fixed.
-struct BaseParameter {
-  std::string name;
-  double value;
-  double lower, upper;
-  bool free;
-};
-
-// Sets the true value in the truth and the setting in the nominal model, where they have it.
-void Apply(const std::vector<BaseParameter>& table, BaseBuild* b) {
-  for (const BaseParameter& p : table) {
-    if (HasParameter(b->truth, p.name)) b->truth.SetParameter(p.name, p.value);
-    if (!HasParameter(b->nominal, p.name)) continue;
-    models::ModelParameter& q = b->nominal.Parameter(p.name);
-    q.value = p.value;
-    q.lower = p.lower;
-    q.upper = p.upper;
-    q.free = p.free;
-    q.scale = std::max(std::fabs(p.value), 1e-6);
-  }
-}
-
-// Sets the truth's effect parameters and records them.
-void SetTruth(const std::string& instance, const std::map<std::string, double>& values,
-              BaseBuild* b) {
-  for (const auto& [name, value] : values) {
-    b->truth.SetParameter(instance + "." + name, value);
-    b->truth_values[instance + "." + name] = value;
-  }
-}
-
-void AddDetail(const std::string& text, BaseBuild* b) {
-  if (!b->detail.empty()) b->detail += "; ";
-  b->detail += text;
-}
-
-template <typename BlockT, typename... Args>
-std::shared_ptr<const models::Block> Make(Args&&... args) {
-  return std::make_shared<const BlockT>(std::forward<Args>(args)...);
-}
-
-models::BlockOptions Motion(const std::string& motion) {
-  models::BlockOptions o;
-  o.words["motion"] = motion;
-  return o;
-}
-
-models::BlockOptions CoulombOptions(const std::string& motion, double steepness) {
-  models::BlockOptions o = Motion(motion);
-  o.numbers["steepness"] = {steepness};
-  return o;
-}
-
-std::string Num(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
 
 void CheckSupported(const std::string& base, const std::vector<std::string>& withheld) {
   for (const std::string& e : withheld) {
@@ -645,7 +576,8 @@ bool BaseSupports(const std::string& base, const std::string& effect) {
       {"pendulum",
        {"coulomb", "asymmetric_friction", "stribeck", "viscous", "power_law_viscous", "presliding",
         "deadzone", "input_delay", "payload", "rotor_inertia", "sensor_offset", "sensor_scale",
-        "ripple", "friction_drift", "periodic_disturbance"}}};
+        "ripple", "friction_drift", "periodic_disturbance"}},
+      {"pneumatic", {"leakage", "polytropic_index", "coulomb", "viscous", "friction_drift"}}};
   const auto it = kSupported.find(base);
   return it != kSupported.end() && it->second.count(effect) > 0;
 }
@@ -655,6 +587,7 @@ BaseBuild BuildBase(const std::string& base, const std::vector<std::string>& wit
   if (base == "drive_closed_loop") return BuildDrive(withheld);
   if (base == "sea") return BuildSea(withheld);
   if (base == "pendulum") return BuildPendulum(withheld);
+  if (base == "pneumatic") return BuildPneumatic(withheld);
   throw std::invalid_argument("withheld cases: unknown base '" + base + "'");
 }
 

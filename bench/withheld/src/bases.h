@@ -37,8 +37,11 @@ struct BaseBuild {
 /// The effects each base can withhold (the catalog draws from these).
 bool BaseSupports(const std::string& base, const std::string& effect);
 
-/// Builds base `base` ("drive_closed_loop", "sea", "pendulum") with `withheld` left out of the
-/// nominal model. Throws std::invalid_argument for an effect the base does not support.
+/// The pneumatic arm (pneumatic_base.cc); called by BuildBase.
+BaseBuild BuildPneumatic(const std::vector<std::string>& withheld);
+
+/// Builds base `base` ("drive_closed_loop", "sea", "pendulum", "pneumatic") with `withheld` left
+/// out of the nominal model. Throws std::invalid_argument for an effect the base does not support.
 BaseBuild BuildBase(const std::string& base, const std::vector<std::string>& withheld);
 
 }  // namespace graybox::bench::internal

@@ -19,7 +19,7 @@ namespace est = graybox::estimators;
 using internal::BaseBuild;
 using internal::Rng;
 
-const std::vector<std::string> kBases = {"drive_closed_loop", "sea", "pendulum"};
+const std::vector<std::string> kBases = {"drive_closed_loop", "sea", "pendulum", "pneumatic"};
 
 // Truth integration: CVODES, BDF with tight tolerances.
 constexpr double kTruthRelTol = 1e-9;
@@ -97,6 +97,13 @@ const std::vector<CaseSpec>& Catalog() {
     c.push_back({p, "periodic_disturbance_2.7Hz", {"periodic_disturbance"}});
     c.push_back({p, "payload+coulomb", {"payload", "coulomb"}});
     c.push_back({p, "sensor_offset+stribeck", {"sensor_offset", "stribeck"}, true});
+    const std::string a = "pneumatic";
+    c.push_back({a, "leakage_orifice", {"leakage"}});
+    c.push_back({a, "heat_transfer", {"polytropic_index"}});
+    c.push_back({a, "coulomb_atan", {"coulomb"}});
+    c.push_back({a, "viscous", {"viscous"}});
+    c.push_back({a, "friction_drift", {"friction_drift"}});
+    c.push_back({a, "leakage+coulomb", {"leakage", "coulomb"}});
     return c;
   }();
   return kCatalog;
@@ -238,7 +245,7 @@ void WithheldOptions::Validate() const {
     if (std::find(kBases.begin(), kBases.end(), b) == kBases.end()) {
       throw std::invalid_argument(
           "WithheldOptions.bases: expected one of drive_closed_loop, sea, "
-          "pendulum, got '" +
+          "pendulum, pneumatic, got '" +
           b + "'" + util::DidYouMeanHint(b, kBases));
     }
   }

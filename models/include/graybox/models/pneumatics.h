@@ -168,6 +168,18 @@
 //               dead_volume_2 [mm^3] 6, crank_radius [mm] 15 in [5, 25], rod_length [mm] 40 in
 //               [30, 60] (the bounds keep l > r), length [mm] 80 (L; must exceed l + r).
 //
+// ---- Block "pneumatic.piston_torque" (seed 004 eq. 3.6 with both bore areas) ---------------
+// Joint torque of a double-acting cylinder's piston force through the slider-crank's lever arm
+// (PneumaticTorque below), so that an arm can be assembled from its parts (valve areas, ports,
+// chambers, slider-crank, a rigid body) and each part's effects attach where they act:
+//   tau = 1e-6 h (A1 (p1 - p_exhaust) - A2 (p2 - p_exhaust))     [N m]
+//   inputs      p1, p2 [kPa] (absolute chamber pressures), lever_arm h [mm/rad] (from
+//               "pneumatic.slider_crank")
+//   outputs     torque [N m] (on the joint; role force)
+//   parameters  bore_area_1 [mm^2] 804, bore_area_2 [mm^2] 603 (as the slider-crank's: fix them or
+//               tie them to the same values), p_exhaust [kPa] 101.325 in [50, 200] (the ambient
+//               pressure on the rod cross-section A1 - A2).
+//
 // ---- Block "pneumatic.arm" (seed 004 eq. 3.1-3.4, 3.6-3.10, 3.12-3.16) ------------------------
 // One joint driven by a double-acting cylinder through the slider-crank, each chamber fed by its
 // own proportional valve (figure 3.3):

@@ -64,7 +64,8 @@ namespace graybox::bench {
 struct WithheldCase {
   /// Unique, "<base short name>/<effect label>/s<k>", e.g. "drive_cl/stribeck_exp1.4/s1".
   std::string name;
-  /// "drive_closed_loop", "sea" (two-mass series elastic actuator) or "pendulum".
+  /// "drive_closed_loop", "sea" (two-mass series elastic actuator), "pendulum" or "pneumatic"
+  /// (seed 004's arm assembled from its parts).
   std::string base;
   /// The effect names (one or two): coulomb, asymmetric_friction, stribeck, viscous,
   /// power_law_viscous, presliding, backlash, deadzone, elasticity, ripple, input_delay, payload,
@@ -98,7 +99,7 @@ struct WithheldCase {
 };
 
 struct WithheldOptions {
-  /// Bases to generate ("drive_closed_loop", "sea", "pendulum"); empty = all.
+  /// Bases to generate ("drive_closed_loop", "sea", "pendulum", "pneumatic"); empty = all.
   std::vector<std::string> bases;
   /// A small subset (one in-library and one outside-or-two-effect case per base at least; about
   /// 8 cases) for CI.

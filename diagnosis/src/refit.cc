@@ -48,22 +48,71 @@ void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
 // started from the score test's one-step estimate (from neutral again when that fails), the shape
 // parameters held; (B) the shape parameters freed too, warm-started from A. B is kept only when
 // it is usable, no freed shape parameter ends at a bound and its cost is not above A's.
-RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
-                  const est::FitResult& nominal, const CandidateScore& screened,
-                  const std::string& role, double before, double max_seconds) {
+RefitRun::RefitRun(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                   const est::FitResult& nominal, const CandidateScore& screened,
+                   const std::string& role, double before, double max_seconds)
+    : problem_(problem),
+      splits_(splits),
+      nominal_(nominal),
+      screened_(screened),
+      role_(role),
+      before_(before),
+      max_seconds_(max_seconds),
+      started_(std::chrono::steady_clock::now()) {}
+
+double RefitRun::CpuElapsed() const {
+  return cpu_spent_ + (running_ ? util::ThreadCpuSeconds() - cpu_mark_ : 0.0);
+}
+
+bool RefitRun::BudgetLeft() {
+  if (!(max_seconds_ > 0.0)) return true;
+  const double left = max_seconds_ - CpuElapsed();
+  if (!(left > 0.0)) return false;
+  session_->SetMaxSolveSeconds(left);
+  return true;
+}
+
+est::FitResult RefitRun::TimedSolve(const est::FitResult* start) {
+  const auto t0 = std::chrono::steady_clock::now();
+  est::FitResult r = session_->Solve(start);
+  solve_wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (const auto& [what, seconds] : r.seconds) {
+    if (what == "solve") solver_seconds_ += seconds;
+  }
+  ++solves_;
+  return r;
+}
+
+void RefitRun::Resume() {
+  cpu_mark_ = util::ThreadCpuSeconds();
+  running_ = true;
+}
+
+void RefitRun::Pause() {
+  cpu_spent_ += util::ThreadCpuSeconds() - cpu_mark_;
+  running_ = false;
+}
+
+void RefitRun::StageA() {
+  const est::Problem& problem = problem_;
+  const std::vector<est::SplitData>& splits = splits_;
+  const est::FitResult& nominal = nominal_;
+  const CandidateScore& screened = screened_;
+  const std::string& role = role_;
+  const double max_seconds = max_seconds_;
   const Candidate& c = screened.candidate;
-  RefitResult out;
+  RefitResult& out = out_;
+  Resume();
   out.candidate = c;
   out.effect = c.effect;
   out.detail = c.detail;
   out.attachment = c.attachment;
   out.score = screened.score;
-  out.validation_nrmse_before = before;
+  out.validation_nrmse_before = before_;
   out.validation_nrmse_after = kNaN;
   out.relative_gain = kNaN;
   out.aic = out.bic = kNaN;
   try {
-    const auto started = std::chrono::steady_clock::now();
     // The option the screening chose (Candidate::option_grids), in the declarative form too.
     std::string option;
     const std::string option_prefix = c.instance + " option ";
@@ -77,42 +126,19 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       out.candidate.augmentation.options.numbers[option] = {
           nominal.values[problem.built.ParameterIndex(parameter)]};
     }
-    est::Problem aug = AugmentedProblem(problem, nominal, c, false);
+    aug_ = AugmentedProblem(problem, nominal, c, false);
+    est::Problem& aug = aug_;
     est::FitOptions fo;
     fo.max_solve_seconds = max_seconds;
     // The budget is CPU time of this thread (the re-fit's solves all run on it): waiting for
     // Ipopt's lock or for a core of a loaded machine does not spend it, so the outcome does not
     // depend on the load (a Dahl re-fit missed its grid on a loaded machine with a wall budget).
     fo.budget_clock = est::FitOptions::BudgetClock::kThreadCpu;
-    const double cpu_started = util::ThreadCpuSeconds();
-    auto session =
+    session_ =
         std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
-    // The budget spread over the solves: each may iterate for what is left; false once spent.
-    auto elapsed = [&started]() {
-      return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    };
-    auto cpu_elapsed = [cpu_started]() { return util::ThreadCpuSeconds() - cpu_started; };
-    auto budget_left = [&]() {
-      if (!(max_seconds > 0.0)) return true;
-      const double left = max_seconds - cpu_elapsed();
-      if (!(left > 0.0)) return false;
-      session->SetMaxSolveSeconds(left);
-      return true;
-    };
-    // Wall time of the re-fit's solves and of the solver inside them (FitResult::seconds "solve"),
-    // reported in RefitResult::stages: the difference is formulation, covariance and evaluation.
-    double solve_wall = 0.0, solver_seconds = 0.0;
-    int solves = 0;
-    auto timed_solve = [&](const est::FitResult* start) {
-      const auto t0 = std::chrono::steady_clock::now();
-      est::FitResult r = session->Solve(start);
-      solve_wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      for (const auto& [what, seconds] : r.seconds) {
-        if (what == "solve") solver_seconds += seconds;
-      }
-      ++solves;
-      return r;
-    };
+    auto& session = session_;
+    auto budget_left = [this]() { return BudgetLeft(); };
+    auto timed_solve = [this](const est::FitResult* start) { return TimedSolve(start); };
     std::vector<double> neutral;
     neutral.assign(c.screened.size(), 0.0);
     for (std::size_t i = 0; i < c.screened.size(); ++i) {
@@ -280,12 +306,32 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       out.stages.push_back(line);
     }
     out.fit = std::move(a);
-    std::vector<std::string> shapes;
     for (const auto& q : c.refit) {
       if (std::find(c.screened.begin(), c.screened.end(), q) == c.screened.end()) {
-        shapes.push_back(q);
+        shapes_.push_back(q);
       }
     }
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+    failed_ = true;
+  }
+  Pause();
+}
+
+bool RefitRun::HasShapeStage() const {
+  return !failed_ && !shapes_.empty() && out_.fit.IsSolutionUsable();
+}
+
+void RefitRun::StageB() {
+  if (!HasShapeStage()) return;
+  RefitResult& out = out_;
+  const std::string& role = role_;
+  const std::vector<std::string>& shapes = shapes_;
+  auto& session = session_;
+  auto budget_left = [this]() { return BudgetLeft(); };
+  auto timed_solve = [this](const est::FitResult* start) { return TimedSolve(start); };
+  Resume();
+  try {
     if (!shapes.empty() && out.fit.IsSolutionUsable() && !budget_left()) {
       out.stages.push_back(
           "shape parameters held (at the nominal or profiled values): the "
@@ -328,14 +374,30 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
         out.stages.push_back("shape parameters held (at the nominal or profiled values): " + held);
       }
     }
-    {
-      char line[200];
-      std::snprintf(line, sizeof(line),
-                    "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far (%.3g s "
-                    "CPU of its budget)",
-                    solves, solve_wall, solver_seconds, elapsed(), cpu_elapsed());
-      out.stages.push_back(line);
-    }
+  } catch (const std::exception& e) {
+    out.failure = e.what();
+    failed_ = true;
+  }
+  Pause();
+}
+
+void RefitRun::HoldShapes(const std::string& reason) {
+  if (HasShapeStage()) {
+    out_.stages.push_back("shape parameters held (at the nominal or profiled values): " + reason);
+  }
+}
+
+void RefitRun::Evaluate() {
+  RefitResult& out = out_;
+  const Candidate& c = screened_.candidate;
+  if (failed_) return;
+  Resume();
+  try {
+    out.parameters.clear();
+    out.at_bound = false;
+    out.ok = false;
+    out.failure.clear();
+    out.relative_gain = kNaN;
     for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
     for (const auto& q : c.refit) {
       const est::FitParameter& p = out.fit.Parameter(q);
@@ -344,7 +406,7 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
       out.at_bound = out.at_bound || (p.free && p.at_bound && !family_end);
     }
     InformationCriteria(out.fit, &out.aic, &out.bic);
-    out.validation_nrmse_after = ValidationNrmse(out.fit.evaluations, role);
+    out.validation_nrmse_after = ValidationNrmse(out.fit.evaluations, role_);
     if (!out.fit.IsSolutionUsable()) {
       out.failure = "solver: " + out.fit.solver_result.status + " " + out.fit.solver_result.message;
     } else if (!out.fit.solver_result.success) {
@@ -353,14 +415,41 @@ RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>
     } else if (!std::isfinite(out.validation_nrmse_after)) {
       out.failure = "the validation simulation did not finish";
     } else {
-      out.failure = IntegrationCheck(aug, splits, out.fit, role, out.validation_nrmse_after);
+      out.failure = IntegrationCheck(aug_, splits_, out.fit, role_, out.validation_nrmse_after);
       out.ok = out.failure.empty();
-      if (out.ok) out.relative_gain = (before - out.validation_nrmse_after) / before;
+      if (out.ok) out.relative_gain = (before_ - out.validation_nrmse_after) / before_;
     }
   } catch (const std::exception& e) {
     out.failure = e.what();
+    out.ok = false;
   }
-  return out;
+  Pause();
+}
+
+RefitResult RefitRun::Finish() {
+  if (solves_ > 0) {
+    char line[200];
+    std::snprintf(
+        line, sizeof(line),
+        "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far (%.3g s "
+        "CPU of its budget)",
+        solves_, solve_wall_, solver_seconds_,
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count(),
+        CpuElapsed());
+    out_.stages.push_back(line);
+  }
+  session_.reset();
+  return std::move(out_);
+}
+
+RefitResult Refit(const est::Problem& problem, const std::vector<est::SplitData>& splits,
+                  const est::FitResult& nominal, const CandidateScore& screened,
+                  const std::string& role, double before, double max_seconds) {
+  RefitRun run(problem, splits, nominal, screened, role, before, max_seconds);
+  run.StageA();
+  run.StageB();
+  run.Evaluate();
+  return run.Finish();
 }
 
 }  // namespace graybox::diagnosis::internal

@@ -242,6 +242,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   options["refit_top"] = d.options.screening.refit_top;
   options["num_threads"] = d.options.screening.num_threads;
   options["tie_tolerance"] = d.options.screening.tie_tolerance;
+  options["contender_share"] = d.options.screening.contender_share;
   options["effects"] = d.options.screening.candidates.effects;
   options["fit_reference"] = d.options.fit_reference;
   options["max_structured_remaining"] = d.options.max_structured_remaining;

@@ -204,6 +204,10 @@ double ChiSquareSurvival(double x, int dof) {
 
 void ScreeningOptions::Validate() const {
   period_scan.Validate();
+  if (!(contender_share >= 0.0 && contender_share <= 1.0)) {
+    throw std::invalid_argument("ScreeningOptions.contender_share: expected in [0, 1], got " +
+                                std::to_string(contender_share));
+  }
   if (!(refit_max_seconds >= 0.0)) {
     throw std::invalid_argument("ScreeningOptions.refit_max_seconds: expected >= 0, got " +
                                 std::to_string(refit_max_seconds));
@@ -296,12 +300,56 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   // The budget of each re-fit: as given, else automatic from this nominal fit.
   const double budget =
       options.refit_max_seconds > 0.0 ? options.refit_max_seconds : AutomaticRefitBudget(nominal);
+  // Stage A of every re-fit side by side; stage B (the shape parameters freed) only for the
+  // round's contenders (ScreeningOptions::contender_share), which are then finished side by side.
+  const int n_refit = static_cast<int>(to_refit.size());
   d.refits.resize(to_refit.size());
-  ParallelFor(static_cast<int>(to_refit.size()), options.num_threads, [&](int i) {
+  std::vector<std::unique_ptr<internal::RefitRun>> runs(to_refit.size());
+  ParallelFor(n_refit, options.num_threads, [&](int i) {
     report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +
            std::to_string(to_refit.size()) + ")");
-    d.refits[i] = Refit(problem, splits, nominal, *to_refit[i], d.validation_role,
-                        d.nominal_validation_nrmse, budget);
+    runs[i] =
+        std::make_unique<internal::RefitRun>(problem, splits, nominal, *to_refit[i],
+                                             d.validation_role, d.nominal_validation_nrmse, budget);
+    runs[i]->StageA();
+    runs[i]->Evaluate();
+    if (!runs[i]->HasShapeStage()) {
+      d.refits[i] = runs[i]->Finish();
+      runs[i].reset();
+    }
+  });
+  double best_gain = 0.0;
+  for (int i = 0; i < n_refit; ++i) {
+    const RefitResult& r = runs[i] ? runs[i]->result() : d.refits[i];
+    if (r.ok && !r.at_bound) {
+      best_gain = std::max(best_gain, r.validation_nrmse_before - r.validation_nrmse_after);
+    }
+  }
+  std::vector<int> contenders;
+  for (int i = 0; i < n_refit; ++i) {
+    if (!runs[i]) continue;
+    const RefitResult& r = runs[i]->result();
+    const double gain = r.validation_nrmse_before - r.validation_nrmse_after;
+    if (r.ok && gain >= options.contender_share * best_gain) {
+      contenders.push_back(i);
+    } else {
+      char reason[160];
+      std::snprintf(reason, sizeof(reason),
+                    "not a contender of the round (validation NRMSE gain %.3g; the best's %.3g)",
+                    gain, best_gain);
+      runs[i]->HoldShapes(reason);
+      d.refits[i] = runs[i]->Finish();
+      runs[i].reset();
+    }
+  }
+  ParallelFor(static_cast<int>(contenders.size()), options.num_threads, [&](int k) {
+    const int i = contenders[k];
+    report("freeing the shape of " + to_refit[i]->candidate.Name() + " (" + std::to_string(k + 1) +
+           "/" + std::to_string(contenders.size()) + ")");
+    runs[i]->StageB();
+    runs[i]->Evaluate();
+    d.refits[i] = runs[i]->Finish();
+    runs[i].reset();
   });
   auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
   const double tie = options.tie_tolerance;

@@ -129,7 +129,9 @@
 //      A's (a freed shape can fit the estimation data's peculiarities: a Stribeck velocity
 //      shrinking to 1.6 mm/s with a 300 N peak fitted the standstill phases of point-to-point
 //      moves and raised the validation error by 12 %); otherwise A is kept, the reason in
-//      RefitResult::stages.
+//      RefitResult::stages. Stage B runs only for the round's contenders, after every re-fit's
+//      stage A: a re-fit whose stage-A validation gain is below ScreeningOptions::contender_share
+//      of the round's best keeps its shapes held.
 // The stages share the re-fit's time budget (ScreeningOptions::refit_max_seconds): once it is
 // spent the remaining grid values and stage B are skipped and A's best point is the re-fit.
 // A re-fit is ok when the solver converged (SolverResult::success: a re-fit stopped at its
@@ -207,6 +209,14 @@ struct ScreeningOptions {
   /// value still comes from the nominal solve's wall time, which load lengthens: a loaded machine
   /// gets a more generous budget, never a shorter one.
   double refit_max_seconds = 0.0;
+  /// Stage B (the shape parameters freed, file comment) runs only for the round's contenders:
+  /// re-fits that are ok after stage A and whose validation NRMSE gain (before - after) is at
+  /// least this share of the best gain of the round's ok re-fits not at a bound (in [0, 1]; 0:
+  /// every re-fit with shape parameters). The others keep their shapes held (at the nominal or
+  /// profiled values; RefitResult::stages says so): a shape that cannot make its effect the
+  /// round's best need not be freed, and stage B is the longest part of a re-fit (on EMPS a
+  /// Stribeck re-fit's stage B ran into its budget in rounds where it gained 1 % of the best's).
+  double contender_share = 0.5;
   /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
   /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt's own code
   /// runs under the estimators' process-wide lock, everything else (the NLP's evaluations,

@@ -323,7 +323,17 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
           }
         }
         d.accepted.push_back(a);
-        current = AugmentedProblem(current, current_fit, best->candidate, true);
+        // The effect's parameters stay free in the next rounds as they were in its re-fit: shape
+        // parameters the re-fit held (stage B not kept, or not a contender) stay held, or every
+        // later re-fit would free them from a start their own stage B did not accept (a held
+        // Stribeck velocity freed in round 2 made every re-fit of a series elastic actuator's
+        // second round end in Ipopt's Restoration_Failed).
+        Candidate accepted = best->candidate;
+        accepted.refit.clear();
+        for (const std::string& q : best->candidate.refit) {
+          if (best->fit.Parameter(q).free) accepted.refit.push_back(q);
+        }
+        current = AugmentedProblem(current, current_fit, accepted, true);
         // The re-fitted values are data of the built model: no second Build.
         for (int i = 0; i < current.built.NumParameters(); ++i) {
           models::ModelParameter& p = current.built.parameters[i];

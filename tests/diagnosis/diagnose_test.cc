@@ -98,6 +98,16 @@ TEST(Diagnose, ForwardSelectionFindsBothWithheldFrictions) {
   }
   EXPECT_NEAR(std::fabs(level), kAsym, kAsymRelTol * kAsym) << asym.detail;
   EXPECT_NE(d.verdict.find("closes"), std::string::npos) << d.verdict;
+  // Each accepted effect's parameters are free in the later rounds (and the final problem) as
+  // they were in its re-fit: a shape parameter its re-fit held stays held.
+  for (const AcceptedEffect& a : d.accepted) {
+    const RefitResult& refit = d.rounds[a.round - 1].screening.refits.front();
+    for (const std::string& q : refit.candidate.refit) {
+      const int i = d.final_problem.built.ParameterIndex(q);
+      ASSERT_GE(i, 0) << q;
+      EXPECT_EQ(d.final_problem.built.parameters[i].free, refit.fit.Parameter(q).free) << q;
+    }
+  }
   // A third round was screened and refused.
   ASSERT_EQ(d.rounds.size(), 3u);
   EXPECT_FALSE(d.rounds.back().accepted);

@@ -32,11 +32,15 @@ graybox_install_packages() {
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# graybox_build DIR [cmake configure arguments...]: configures a Release build in DIR and builds
+# every target, or only the targets named in GRAYBOX_TARGETS (space-separated).
 graybox_build() {
   local build_dir=$1
   shift
   cmake -S "$GRAYBOX_ROOT" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-  cmake --build "$build_dir" -j "$(nproc)"
+  local targets=()
+  for t in ${GRAYBOX_TARGETS:-}; do targets+=(--target "$t"); done
+  cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"
 }
 
 GRAYBOX_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

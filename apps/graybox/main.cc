@@ -12,10 +12,13 @@
 // Exit codes: 0 success, 1 internal error, 2 bad input (nothing written), 3 solver failure
 // (result.json written, its status says why). See docs/problem-format.md.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "../src/app.h"
+#include "graybox/util/did_you_mean.h"
 
 namespace {
 
@@ -133,6 +136,20 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   AddDiagnosisOptions(withheld_cmd, &withheld);
 
+  // A mistyped subcommand: CLI11 would say only "A subcommand is required".
+  if (argc >= 2 && argv[1][0] != '-') {
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+    const std::string given = argv[1];
+    if (std::find(names.begin(), names.end(), given) == names.end()) {
+      std::string list;
+      for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+      std::cerr << "graybox: error: unknown command '" << graybox::app::Printable(given) << "'"
+                << graybox::util::DidYouMeanHint(given, names) << " (commands: " << list
+                << "; graybox --help)\n";
+      return graybox::app::kExitBadInput;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -122,8 +122,8 @@ std::string ReportJson(const RunReport& report) {
       for (const auto& e : report.fit.uncertainty.parameters) {
         if (e.name != mp.name) continue;
         p["std_error"] = e.std_error;
-        p["relative_std_percent"] =
-            e.value != 0.0 ? 100.0 * e.std_error / std::fabs(e.value) : std::nan("");
+        const double relative = e.RelativeStdPercent();
+        p["relative_std_percent"] = std::isfinite(relative) ? Json(relative) : Json(nullptr);
         p["ci95"] = {e.ci_low, e.ci_high};
       }
     }

@@ -479,6 +479,51 @@ std::vector<std::string> Model::Signals() const {
   return {names.begin(), names.end()};
 }
 
+namespace {
+
+// The quantity (0 position, 1 velocity, 2 acceleration, 3 force) and kind (false prismatic, true
+// rotational) of a mechanical axis unit; quantity -1 for other units.
+std::pair<int, bool> AxisUnit(const std::string& unit) {
+  static const std::map<std::string, std::pair<int, bool>> kUnits = {
+      {"m", {0, false}},     {"rad", {0, true}},     {"m/s", {1, false}}, {"rad/s", {1, true}},
+      {"m/s^2", {2, false}}, {"rad/s^2", {2, true}}, {"N", {3, false}},   {"N m", {3, true}}};
+  const auto it = kUnits.find(unit);
+  return it == kUnits.end() ? std::make_pair(-1, false) : it->second;
+}
+
+}  // namespace
+
+// A block whose input (or output) is the rotational form of a prismatic signal (rad/s read from
+// a slide's m/s), or the reverse, is refused: its parameters would be reported in the wrong
+// units (a friction block on a mechanics.mass reported N m s/rad without motion = "prismatic").
+void Model::CheckAxisUnits(const std::map<std::string, SignalInfo>& signal_info) const {
+  auto check = [&](const Instance& inst, const std::string& signal, const SignalInfo& port,
+                   const char* verb) {
+    const auto it = signal_info.find(signal);
+    if (it == signal_info.end()) return;
+    const std::pair<int, bool> a = AxisUnit(port.unit), b = AxisUnit(it->second.unit);
+    if (a.first < 0 || a.first != b.first || a.second == b.second) return;
+    throw std::invalid_argument(
+        "model '" + name_ + "': block '" + inst.name + "' (" + inst.block->info().type + ") " +
+        verb + " signal '" + signal + "' in " + port.unit + " (its " + port.name + "), but '" +
+        signal + "' is in " + it->second.unit + ": a " + (a.second ? "rotational" : "prismatic") +
+        " block on a " + (b.second ? "rotational" : "prismatic") +
+        " axis; where the block has a motion option, set motion = \"" +
+        (b.second ? "rotational" : "prismatic") + "\"");
+  };
+  for (const Instance& inst : instances_) {
+    const BlockInfo& info = inst.block->info();
+    for (std::size_t k = 0; k < inst.inputs.size() && k < info.inputs.size(); ++k) {
+      if (!inst.inputs[k].empty()) check(inst, inst.inputs[k], info.inputs[k], "reads");
+    }
+    for (std::size_t k = 0; k < inst.outputs.size() && k < info.outputs.size(); ++k) {
+      if (!inst.outputs[k].empty()) {
+        check(inst, Connection(inst.outputs[k]).first, info.outputs[k], "writes");
+      }
+    }
+  }
+}
+
 StateSpaceModel Model::Build() const {
   StateSpaceModel ss;
   ss.name = name_;
@@ -545,6 +590,7 @@ StateSpaceModel Model::Build() const {
       }
     }
   }
+  CheckAxisUnits(signal_info);
   const std::vector<std::string> known = Signals();
   auto check_known = [&](const std::string& s, const std::string& where) {
     // "" is an unconnected block input: it reads 0 (AddBlock).

@@ -111,6 +111,18 @@ TEST(Cli, BlocksListsTheTypesAndDescribesOne) {
   EXPECT_NE(typo.output.find("did you mean 'friction.coulomb'"), std::string::npos) << typo.output;
 }
 
+TEST(Cli, AMistypedCommandIsNamedWithTheClosestOne) {
+  ScratchDir dir;
+  const RunResult typo = RunGraybox("fitt x.toml", dir / "typo.log");
+  EXPECT_EQ(typo.exit_code, 2) << typo.output;  // bad input
+  EXPECT_NE(typo.output.find("unknown command 'fitt'; did you mean 'fit'?"), std::string::npos)
+      << typo.output;
+  const RunResult none = RunGraybox("", dir / "none.log");
+  EXPECT_EQ(none.exit_code, 2) << none.output;
+  EXPECT_NE(none.output.find("subcommand is required"), std::string::npos) << none.output;
+  EXPECT_EQ(RunGraybox("--version", dir / "version.log").exit_code, 0);
+}
+
 TEST(Cli, EmpsClosedLoopAgreesWithIdim) {
   if (!HaveEmps()) GTEST_SKIP() << "no EMPS data";
   ScratchDir dir;

@@ -95,6 +95,37 @@ TEST(EquationFile, FitRecoversTheSyntheticTank) {
   EXPECT_NEAR(a, kTrueA, kRecoveryTolerance * kTrueA);
 }
 
+// docs/howto-csv.md's problem file, as the how-to tells a user to write it beside the CSV:
+// check, fit and simulate as its steps say, with the estimates it prints.
+TEST(EquationFile, TheHowToRunsAsWritten) {
+  std::ifstream doc(std::string(GRAYBOX_SOURCE_DIR) + "/docs/howto-csv.md");
+  std::ostringstream text;
+  text << doc.rdbuf();
+  const std::string md = text.str();
+  const std::size_t begin = md.find("```toml\n");
+  ASSERT_NE(begin, std::string::npos);
+  const std::size_t end = md.find("```", begin + 8);
+  ASSERT_NE(end, std::string::npos);
+  ScratchDir dir;
+  apps_testing::WriteText(dir / "my_tank.toml", md.substr(begin + 8, end - begin - 8));
+  apps_testing::WriteText(dir / "tank.csv", apps_testing::ReadText(std::string(GRAYBOX_SOURCE_DIR) +
+                                                                   "/problems/equations/tank.csv"));
+  const std::string cwd = dir.path().string();
+  EXPECT_EQ(RunGraybox("check my_tank.toml", dir / "check.txt", cwd).exit_code, 0);
+  const RunResult fit = RunGraybox("fit my_tank.toml --out out/my_tank", dir / "fit.txt", cwd);
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  std::ifstream in(dir / "out/my_tank/result.json");
+  const nlohmann::json result = nlohmann::json::parse(in);
+  // The digits the how-to prints.
+  constexpr double kPrinted = 1e-4;
+  EXPECT_NEAR(result["parameters"]["tank.kp"]["value"].get<double>(), 30.0006, kPrinted);
+  EXPECT_NEAR(result["parameters"]["tank.a"]["value"].get<double>(), 0.500049, kPrinted);
+  const RunResult sim =
+      RunGraybox("simulate my_tank.toml --params out/my_tank/result.json --out out/my_tank_sim",
+                 dir / "sim.txt", cwd);
+  EXPECT_EQ(sim.exit_code, 0) << sim.output;
+}
+
 TEST(EquationFile, DefectsAreReportedAtTheirLineAndColumn) {
   // Inside an equation: the column of the unknown name.
   {

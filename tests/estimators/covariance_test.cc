@@ -57,6 +57,32 @@ const ParameterEstimate& Named(const UncertaintyReport& u, const std::string& na
   throw std::invalid_argument("no parameter " + name);
 }
 
+TEST(Covariance, RelativeStdErrorIsReportedOnlyWhereItSaysSomething) {
+  ParameterEstimate p;
+  p.value = -2.0;
+  p.std_error = 0.1;
+  constexpr double kRounding = 1e-12;
+  EXPECT_NEAR(p.RelativeStdPercent(), 5.0, kRounding);
+  // A value near zero (an output weight of ~1e-17 printed 4.19e17 %): not a relative error.
+  p.value = 1e-17;
+  EXPECT_TRUE(std::isnan(p.RelativeStdPercent()));
+  // At the floor it is reported (1000 %), just below it not.
+  p.value = kRelativeErrorFloor * p.std_error;
+  EXPECT_NEAR(p.RelativeStdPercent(), 1000.0, 1000.0 * kRounding);
+  p.value = 0.99 * kRelativeErrorFloor * p.std_error;
+  EXPECT_TRUE(std::isnan(p.RelativeStdPercent()));
+  // Fixed, unknown or zero.
+  p.value = 2.0;
+  p.free = false;
+  EXPECT_TRUE(std::isnan(p.RelativeStdPercent()));
+  p.free = true;
+  p.std_error = std::nan("");
+  EXPECT_TRUE(std::isnan(p.RelativeStdPercent()));
+  p.value = 0.0;
+  p.std_error = 0.0;
+  EXPECT_TRUE(std::isnan(p.RelativeStdPercent()));
+}
+
 TEST(Covariance, LinearLeastSquaresMatchesTheClosedForm) {
   std::mt19937 rng(kSeed);
   std::normal_distribution<double> g(0.0, 1.0);

@@ -229,6 +229,34 @@ TEST(Model, UnknownSignalIsReportedWithASuggestion) {
   }
 }
 
+// A friction block in its default rotational form on a slide (mechanics.mass, prismatic): its
+// parameters would be reported in N m s/rad. Refused with the motion option to set.
+TEST(Model, RotationalBlockOnAPrismaticAxisIsRefused) {
+  BlockOptions prismatic;
+  prismatic.words["motion"] = "prismatic";
+  Model m("slide");
+  m.AddInput("force", "N");
+  m.AddBlock("load", "mechanics.mass", prismatic, {"force"}, {});
+  m.AddBlock("viscous", "friction.viscous", {}, {"load.qd"}, {"-force"});
+  m.AddOutput("load.q");
+  try {
+    m.Build();
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("block 'viscous' (friction.viscous) reads signal 'load.qd' in rad/s"),
+              std::string::npos)
+        << msg;
+    EXPECT_NE(msg.find("set motion = \"prismatic\""), std::string::npos) << msg;
+  }
+  Model ok("slide");
+  ok.AddInput("force", "N");
+  ok.AddBlock("load", "mechanics.mass", prismatic, {"force"}, {});
+  ok.AddBlock("viscous", "friction.viscous", prismatic, {"load.qd"}, {"-force"});
+  ok.AddOutput("load.q");
+  EXPECT_NO_THROW(ok.Build());
+}
+
 TEST(Model, AlgebraicLoopIsRejected) {
   Model m("loop");
   m.AddInput("u", "1");

@@ -487,6 +487,15 @@ std::string UncertaintyReport::BriefReport() const {
   return s;
 }
 
+double ParameterEstimate::RelativeStdPercent() const {
+  const double magnitude = std::fabs(value);
+  if (!free || !std::isfinite(std_error) || !std::isfinite(value) ||
+      !(magnitude >= kRelativeErrorFloor * std_error) || magnitude == 0.0) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return 100.0 * std_error / magnitude;
+}
+
 std::string UncertaintyReport::FullReport() const {
   std::ostringstream os;
   os << BriefReport() << "\n";
@@ -496,9 +505,15 @@ std::string UncertaintyReport::FullReport() const {
   os << buf;
   for (const auto& p : parameters) {
     if (p.free) {
-      std::snprintf(buf, sizeof buf, "  %-28s %14.6g %12.4g %9.4f   [%12.6g, %12.6g] %s\n",
-                    p.name.c_str(), p.value, p.std_error, 100.0 * p.std_error / std::fabs(p.value),
-                    p.ci_low, p.ci_high, p.unit.c_str());
+      const double relative = p.RelativeStdPercent();
+      char rel[32];
+      if (std::isfinite(relative)) {
+        std::snprintf(rel, sizeof rel, "%9.4f", relative);
+      } else {
+        std::snprintf(rel, sizeof rel, "%9s", "n/a");
+      }
+      std::snprintf(buf, sizeof buf, "  %-28s %14.6g %12.4g %s   [%12.6g, %12.6g] %s\n",
+                    p.name.c_str(), p.value, p.std_error, rel, p.ci_low, p.ci_high, p.unit.c_str());
     } else {
       std::snprintf(buf, sizeof buf, "  %-28s %14.6g %12s %9s   %-30s %s\n", p.name.c_str(),
                     p.value, "fixed", "", "", p.unit.c_str());

@@ -43,6 +43,7 @@
 // [[model.augment]] table.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -277,6 +278,9 @@ class Model {
   /// output subtracted ("-name") from a signal that no block reads and no output reports (a
   /// typo; with the closest read signal), a model input nothing reads, or no states and no
   /// outputs. A signal written with "+" and read by nobody is an internal signal (allowed).
+  /// Also refused: a block input or output in the rotational unit of a prismatic signal (rad,
+  /// rad/s, rad/s^2, N m against m, m/s, m/s^2, N) or the reverse, naming the block and the
+  /// motion option to set.
   StateSpaceModel Build() const;
 
  private:
@@ -294,6 +298,9 @@ class Model {
   std::vector<std::string> InstanceNames() const;
   // Throws std::invalid_argument unless `instance` is a valid name no instance has yet.
   void CheckNewInstance(const std::string& instance) const;
+  // Throws std::invalid_argument for a rotational port on a prismatic signal or the reverse
+  // (Build's doc); `signal_info`: every signal's info, from its input, state or first producer.
+  void CheckAxisUnits(const std::map<std::string, SignalInfo>& signal_info) const;
 
   std::string name_;
   std::vector<Input> inputs_;

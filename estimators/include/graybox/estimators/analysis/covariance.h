@@ -81,7 +81,17 @@ struct ParameterEstimate {
   double ci_low = 0.0;  // 95% interval (NaN with std_error)
   double ci_high = 0.0;
   bool free = true;
+
+  /// The standard error as a percentage of |value|: 100 std_error / |value|. NaN (reported as
+  /// "n/a" and JSON null) where it says nothing: a fixed parameter, an unknown standard error, or
+  /// a value within kRelativeErrorFloor standard errors of zero (the ratio then only measures how
+  /// close the estimate happens to be to zero: 4.19e17 % for an output weight of ~1e-17).
+  double RelativeStdPercent() const;
 };
+
+/// ParameterEstimate::RelativeStdPercent is NaN when |value| < kRelativeErrorFloor std_error
+/// (above 1000 %).
+inline constexpr double kRelativeErrorFloor = 0.1;
 
 /// CovarianceOptions::row_channels entry of a penalty (regularisation) row.
 inline constexpr int kPenaltyRow = -2;

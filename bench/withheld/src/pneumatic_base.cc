@@ -30,9 +30,15 @@ constexpr double kPneuVd = 1e-3;        // [rad/s] width of the truth's atan sig
 constexpr double kPneuHanging = kPi / 2.0;
 constexpr double kPneuAlpha = 0.1124;  // [sqrt(K) s/m] seed 004 table 3.2
 constexpr double kPneuCount = 2.0 * kPi / 16384.0;
-constexpr double kValveCentre = 5.0;       // [V] both valves closed (leak areas only)
-constexpr double kLeakArea = 0.02;         // [mm^2] truth's orifice leak of chamber 1
-constexpr double kHeatConductance = 0.15;  // [W/K] truth's gas <-> wall conductance
+constexpr double kValveCentre = 5.0;  // [V] both valves closed (leak areas only)
+constexpr double kLeakArea = 0.02;    // [mm^2] truth's orifice leak of chamber 1
+// [W/K] truth's gas <-> wall conductance: a thermal time constant m c_v / hA of about 5 ms
+// (1e-4 kg of air), so the chambers are nearly isothermal (an effective exponent near 1 against
+// the nominal 1.4), not exactly polytropic. With 0.15 W/K (0.5 s) the heat exchange is a
+// relaxation of the pressure after each filling that no constant exponent follows: freeing both
+// chambers' exponents gained 1.6 % of the validation NRMSE where the true structure gains 97 %,
+// an effect outside the library rather than a nearby shape of polytropic_index.
+constexpr double kHeatConductance = 15.0;
 
 // Valve commands u1 = 5 V + a(t), u2 = 5 V - a(t): one opens its chamber to the supply while the
 // other vents, the antagonistic drive of a double-acting cylinder.

@@ -283,8 +283,14 @@ Model ResidualInverseDynamicsModel(const SerialChain& chain,
   m.AddBlock("phy", physics, joint_signals, physics_outputs);
   if (!options.joint_friction.empty()) {
     for (int j = 1; j <= n; ++j) {
-      m.AddBlock(Numbered("f", j), options.joint_friction, options.joint_friction_options,
-                 {Numbered("qd", j)}, {Numbered("tau", j)});
+      // A prismatic joint's friction in its units (m/s, N) unless the options say otherwise.
+      BlockOptions friction = options.joint_friction_options;
+      if (chain.link(j - 1).joint_type == JointType::kPrismatic &&
+          !friction.words.count("motion")) {
+        friction.words["motion"] = "prismatic";
+      }
+      m.AddBlock(Numbered("f", j), options.joint_friction, friction, {Numbered("qd", j)},
+                 {Numbered("tau", j)});
     }
   }
   // GRU layers.

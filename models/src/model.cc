@@ -499,6 +499,8 @@ std::pair<int, bool> AxisUnit(const std::string& unit) {
 void Model::CheckAxisUnits(const std::map<std::string, SignalInfo>& signal_info) const {
   auto check = [&](const Instance& inst, const std::string& signal, const SignalInfo& port,
                    const char* verb) {
+    // Only ports with a mechanical role: a network's or a generic block's units are nominal.
+    if (port.role == SignalRole::kNone) return;
     const auto it = signal_info.find(signal);
     if (it == signal_info.end()) return;
     const std::pair<int, bool> a = AxisUnit(port.unit), b = AxisUnit(it->second.unit);

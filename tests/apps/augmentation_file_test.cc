@@ -240,6 +240,7 @@ TEST_F(AugmentedProblem, AugmentationTomlReadsBackToTheSameAugmentation) {
   c.kind = Kind::kAdd;
   c.instance = "coulomb2";
   c.type = "friction.coulomb";
+  c.options.words["motion"] = "prismatic";
   c.options.numbers["steepness"] = {1.0e6};
   c.inputs = {"load.qd"};
   c.outputs = {"-force"};
@@ -413,6 +414,7 @@ std::string MassOnly(const std::string& augment) {
       "[[model.blocks]]\n"
       "instance = \"friction\"\n"
       "type = \"friction.viscous\"\n"
+      "options = { motion = \"prismatic\" }\n"
       "inputs = [\"load.qd\"]\n"
       "outputs = [\"-force\"]\n"
       "\n";
@@ -435,6 +437,7 @@ TEST_F(AugmentedProblem, FitRunsTheAugmentedProblemFromTheNominalResult) {
   WriteText(dir_ / "friction.toml", MassOnly("\n[[model.augment]]\n"
                                              "instance = \"friction\"\n"
                                              "type = \"friction.viscous\"\n"
+                                             "options = { motion = \"prismatic\" }\n"
                                              "inputs = [\"load.qd\"]\n"
                                              "outputs = [\"-force\"]\n"));
   const apps_testing::RunResult again =

@@ -128,6 +128,7 @@ inline std::string PushedProblem(const std::string& estimation =
          "[[model.blocks]]\n"
          "instance = \"friction\"\n"
          "type = \"friction.viscous\"\n"
+         "options = { motion = \"prismatic\" }\n"
          "inputs = [\"load.qd\"]\n"
          "outputs = [\"-force\"]\n"
          "\n"

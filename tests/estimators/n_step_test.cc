@@ -97,6 +97,7 @@ std::string PushedMass(const std::vector<std::string>& outputs, const std::strin
          "[[model.blocks]]\n"
          "instance = \"friction\"\n"
          "type = \"friction.viscous\"\n"
+         "options = { motion = \"prismatic\" }\n"
          "inputs = [\"load.qd\"]\n"
          "outputs = [\"-force\"]\n"
          "[[model.blocks]]\n"

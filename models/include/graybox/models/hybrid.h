@@ -158,7 +158,8 @@ struct ResidualInverseDynamicsOptions {
   /// from the fields above.
   BlockOptions network;
   /// Registered type of a joint friction block added per joint at its nominal values (empty: no
-  /// friction block), and its options.
+  /// friction block), and its options (a prismatic joint's block gets motion = "prismatic" unless
+  /// they set a motion).
   std::string joint_friction;
   BlockOptions joint_friction_options;
 };

@@ -303,8 +303,7 @@ double ShapeScale(const est::Problem& problem, const std::vector<est::SplitData>
     const est::Experiment& e = split.experiment;
     if (grid.scale == Scale::kSampleTime) return e.dt;
     if (state < 0) return kNaN;
-    const auto it = nominal.initial_states.find(split.name);
-    const Eigen::VectorXd& x0 = it != nominal.initial_states.end() ? it->second : split.setup.x0;
+    const Eigen::VectorXd x0 = est::InitialStateOf(split, nominal.initial_states);
     const std::unique_ptr<est::Integrator> integrator =
         est::MakeIntegrator(m, e.dt, problem.estimation.integrator);
     const est::Trajectory t = integrator->Simulate(x0, e.u, nominal.values);

@@ -141,6 +141,8 @@ std::vector<est::SplitData> AugmentedSplits(const std::vector<est::SplitData>& s
     Eigen::VectorXd x0 = Eigen::VectorXd::Zero(num_states);
     x0.head(old) = s.setup.x0;
     s.setup.x0 = x0;
+    // The candidate's new states follow the method's default for their initial values.
+    if (!s.setup.x0_free.empty()) s.setup.x0_free.resize(num_states, est::kInitialStateDefault);
     if (s.setup.state_guess.size() > 0) {
       Eigen::MatrixXd guess = Eigen::MatrixXd::Zero(s.setup.state_guess.rows(), num_states);
       guess.leftCols(s.setup.state_guess.cols()) = s.setup.state_guess;

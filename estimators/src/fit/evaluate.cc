@@ -76,14 +76,26 @@ SplitEvaluation EvaluateSplit(const Problem& problem, const SplitData& split,
   return ev;
 }
 
+Eigen::VectorXd InitialStateOf(const SplitData& split,
+                               const std::map<std::string, Eigen::VectorXd>& estimated) {
+  const auto own = estimated.find(split.name);
+  if (own != estimated.end()) return own->second;
+  Eigen::VectorXd x0 = split.setup.x0;
+  for (const auto& [state, from] : split.x0_from_split) {
+    const auto it = estimated.find(from);
+    if (it != estimated.end() && state < it->second.size() && state < x0.size()) {
+      x0[state] = it->second[state];
+    }
+  }
+  return x0;
+}
+
 std::vector<SplitEvaluation> Simulate(
     const Problem& problem, const std::vector<SplitData>& splits, const Eigen::VectorXd& values,
     const std::map<std::string, Eigen::VectorXd>& initial_states) {
   std::vector<SplitEvaluation> out;
   for (const SplitData& s : splits) {
-    auto it = initial_states.find(s.name);
-    out.push_back(
-        EvaluateSplit(problem, s, values, it != initial_states.end() ? it->second : s.setup.x0));
+    out.push_back(EvaluateSplit(problem, s, values, InitialStateOf(s, initial_states)));
   }
   return out;
 }

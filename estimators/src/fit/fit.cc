@@ -449,10 +449,8 @@ FitResult FitSession::Solve(const FitResult* start) {
   t = Timer();
   if (s.options.evaluate_splits) {
     for (const SplitData& split : s.splits) {
-      auto x0 = result.initial_states.find(split.name);
-      SplitEvaluation e =
-          EvaluateSplit(problem, split, result.values,
-                        x0 != result.initial_states.end() ? x0->second : split.setup.x0);
+      SplitEvaluation e = EvaluateSplit(problem, split, result.values,
+                                        InitialStateOf(split, result.initial_states));
       if (f.evaluate_equation) f.evaluate_equation(split, result.values, &e);
       s.Progress("  " + e.BriefReport());
       result.evaluations.push_back(std::move(e));

@@ -288,7 +288,10 @@ Formulation FormulateMethod(const Problem& problem, const std::vector<const Spli
     options.integrator = spec.integrator;
     options.output_weights = weights;
     options.fix_initial_state = spec.multiple_shooting.fix_initial_state;
-    x0_free = !options.fix_initial_state;
+    x0_free = false;
+    for (const auto& setup : ex->setups) {
+      x0_free = x0_free || setup.AnyInitialStateFree(m.NumStates(), !options.fix_initial_state);
+    }
     shooting =
         std::make_shared<ShootingProblem>(BuildSingleShooting(m, ex->data, ex->setups, options));
     f.summary.emplace_back("integrator", IntegrationMethodName(options.integrator.method));

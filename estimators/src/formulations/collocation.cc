@@ -175,9 +175,12 @@ CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
     for (int k = 0; k < n; ++k) {
       for (int i = 0; i < nx; ++i) {
         sv(k, i) = static_cast<int>(w0.size());
-        w0.push_back(guess(k, i));
-        lbw.push_back(-std::numeric_limits<double>::infinity());
-        ubw.push_back(std::numeric_limits<double>::infinity());
+        // The initial state is estimated, except states held by ExperimentSetup::x0_free (a
+        // variable with equal bounds at x0).
+        const bool held = k == 0 && !setups[e].InitialStateFree(i, true);
+        w0.push_back(held ? setups[e].x0[i] : guess(k, i));
+        lbw.push_back(held ? setups[e].x0[i] : -std::numeric_limits<double>::infinity());
+        ubw.push_back(held ? setups[e].x0[i] : std::numeric_limits<double>::infinity());
         names.push_back(ex.name + ".x" + std::to_string(k) + "." + model.states[i].name);
       }
       if (k + 1 == n) break;

@@ -131,13 +131,18 @@ ShootingProblem BuildMultipleShooting(const models::StateSpaceModel& model,
           "= \"data\" (nodes from the measurements), or ExperimentSetup::state_guess in C++");
     }
     Eigen::MatrixXi nodes = Eigen::MatrixXi::Constant(num_segments, nx, -1);
+    // The first node is data when no state's initial value is estimated; else variables, those
+    // of held states with equal bounds (ExperimentSetup::x0_free).
+    const bool default_free = !options.fix_initial_state;
+    const bool any_free = setup.AnyInitialStateFree(nx, default_free);
     for (int j = 0; j < num_segments; ++j) {
-      const bool fixed = j == 0 && options.fix_initial_state;
+      const bool fixed = j == 0 && !any_free;
       for (int i = 0; i < nx && !fixed; ++i) {
         nodes(j, i) = static_cast<int>(w0.size());
         w0.push_back(j == 0 ? setup.x0[i] : guess(j * length, i));
-        lbw.push_back(-std::numeric_limits<double>::infinity());
-        ubw.push_back(std::numeric_limits<double>::infinity());
+        const bool held = j == 0 && !setup.InitialStateFree(i, default_free);
+        lbw.push_back(held ? setup.x0[i] : -std::numeric_limits<double>::infinity());
+        ubw.push_back(held ? setup.x0[i] : std::numeric_limits<double>::infinity());
         names.push_back(ex.name + ".s" + std::to_string(j) + "." + model.states[i].name);
       }
       const int start = j * length;

@@ -93,14 +93,20 @@ ShootingProblem BuildSingleShooting(const models::StateSpaceModel& model,
   std::vector<std::string> names;
   map.AppendVariables(&w0, &lbw, &ubw, &names);
   std::vector<Eigen::MatrixXi> node_variables;
+  // Per experiment: its initial state is a variable when any state's is estimated (held states
+  // with equal bounds, ExperimentSetup::x0_free).
+  const bool default_free = !options.fix_initial_state;
+  std::vector<bool> x0_variables(experiments.size());
   for (std::size_t e = 0; e < experiments.size(); ++e) {
     const Experiment& ex = experiments[e];
     Eigen::MatrixXi nodes = Eigen::MatrixXi::Constant(1, nx, -1);
-    for (int i = 0; i < nx && !options.fix_initial_state; ++i) {
+    x0_variables[e] = setups[e].AnyInitialStateFree(nx, default_free);
+    for (int i = 0; i < nx && x0_variables[e]; ++i) {
       nodes(0, i) = static_cast<int>(w0.size());
       w0.push_back(setups[e].x0[i]);
-      lbw.push_back(-std::numeric_limits<double>::infinity());
-      ubw.push_back(std::numeric_limits<double>::infinity());
+      const bool held = !setups[e].InitialStateFree(i, default_free);
+      lbw.push_back(held ? setups[e].x0[i] : -std::numeric_limits<double>::infinity());
+      ubw.push_back(held ? setups[e].x0[i] : std::numeric_limits<double>::infinity());
       names.push_back(ex.name + ".x0." + model.states[i].name);
     }
     node_variables.push_back(nodes);
@@ -125,13 +131,13 @@ ShootingProblem BuildSingleShooting(const models::StateSpaceModel& model,
     const int r0 = problem.nlp.NumResiduals();
     std::vector<int> variables;
     for (int i = 0; i < map.NumFree(); ++i) variables.push_back(i);
-    for (int i = 0; i < nx && !options.fix_initial_state; ++i) {
+    for (int i = 0; i < nx && x0_variables[e]; ++i) {
       variables.push_back(node_variables[e](0, i));
     }
-    problem.nlp.AddResidualBlock("simulation_" + experiments[e].name, variables,
-                                 std::make_shared<SimulationResidual>(
-                                     integrator, experiments[e], setups[e], map,
-                                     problem.shared_values, weights, !options.fix_initial_state));
+    problem.nlp.AddResidualBlock(
+        "simulation_" + experiments[e].name, variables,
+        std::make_shared<SimulationResidual>(integrator, experiments[e], setups[e], map,
+                                             problem.shared_values, weights, x0_variables[e]));
     const int ny = model.NumOutputs();
     for (int k = 0; k < experiments[e].NumSamples(); ++k) {
       for (int j = 0; j < ny; ++j) {

@@ -209,6 +209,35 @@ void ParseData(const Section& root, Problem* problem) {
           if (v.is_string()) {
             if (v.as_string()->get().empty()) t.Fail(state, "expected a variable name, got ''");
             spec.initial_state_variables[state] = v.as_string()->get();
+          } else if (v.is_table()) {
+            // { value = x | variable = "name", free = true | false } or { from_split = "name" }.
+            const Section st(t.file(), *v.as_table(), t.Join(state));
+            st.Allow({"value", "variable", "free", "from_split"});
+            const std::optional<double> value = st.Number("value");
+            const std::optional<std::string> variable = st.String("variable");
+            const std::optional<bool> free = st.Bool("free");
+            const std::optional<std::string> from = st.String("from_split");
+            if (value && variable) {
+              st.Fail("variable", "give 'value' or 'variable', not both");
+            }
+            if (from && (value || variable || free)) {
+              st.Fail("from_split",
+                      "'from_split' starts the state at another split's estimate: it takes no "
+                      "'value', 'variable' or 'free'");
+            }
+            if (!from && !value && !variable && !free) {
+              st.Fail("", "expected 'value', 'variable', 'free' or 'from_split'");
+            }
+            if (variable) {
+              if (variable->empty()) st.Fail("variable", "expected a variable name, got ''");
+              spec.initial_state_variables[state] = *variable;
+            }
+            if (value) spec.initial_state[state] = *value;
+            if (free) spec.initial_state_free[state] = *free;
+            if (from) {
+              if (from->empty()) st.Fail("from_split", "expected a split name, got ''");
+              spec.initial_state_from_split[state] = *from;
+            }
           } else {
             spec.initial_state[state] = t.NumberOf(v, state);
           }
@@ -487,6 +516,19 @@ std::vector<SplitData> LoadData(const Problem& problem) {
       d.experiment = Slice(e, s.begin, end);
       d.experiment.name = s.name;
       d.setup.x0 = Eigen::VectorXd::Zero(m.NumStates());
+      if (!spec.initial_state_free.empty()) {
+        d.setup.x0_free.assign(m.NumStates(), kInitialStateDefault);
+        for (int i = 0; i < m.NumStates(); ++i) {
+          auto it = spec.initial_state_free.find(m.states[i].name);
+          if (it != spec.initial_state_free.end()) {
+            d.setup.x0_free[i] = it->second ? kInitialStateFree : kInitialStateFixed;
+          }
+        }
+      }
+      for (int i = 0; i < m.NumStates(); ++i) {
+        auto from = spec.initial_state_from_split.find(m.states[i].name);
+        if (from != spec.initial_state_from_split.end()) d.x0_from_split[i] = from->second;
+      }
       for (int i = 0; i < m.NumStates(); ++i) {
         auto it = spec.initial_state.find(m.states[i].name);
         if (it != spec.initial_state.end()) {
@@ -511,6 +553,33 @@ std::vector<SplitData> LoadData(const Problem& problem) {
         }
       }
       splits.push_back(std::move(d));
+    }
+  }
+  // from_split: an estimation split of another [[data]], for a split that is not one.
+  for (const SplitData& d : splits) {
+    for (const auto& [state, from] : d.x0_from_split) {
+      const std::string what = "data '" + d.data_name + "': initial_state of '" +
+                               m.states[state].name + "': from_split = '" + from + "'";
+      if (d.role == SplitRole::kEstimation) {
+        throw ProblemFileError(d.where, what + " on the estimation split '" + d.name +
+                                            "': an estimation split estimates its own initial "
+                                            "state; from_split is for validation and test splits");
+      }
+      const SplitData* source = nullptr;
+      std::vector<std::string> names;
+      for (const SplitData& o : splits) {
+        names.push_back(o.name);
+        if (o.name == from) source = &o;
+      }
+      if (source == nullptr) {
+        throw ProblemFileError(d.where, what + ": no such split" + Suggestion(from, names));
+      }
+      if (source->role != SplitRole::kEstimation) {
+        throw ProblemFileError(d.where, what +
+                                            ": expected an estimation split (whose initial "
+                                            "state is estimated), got a " +
+                                            SplitRoleName(source->role) + " split");
+      }
     }
   }
   return splits;

@@ -252,9 +252,16 @@ class FitSession {
 FitResult Fit(const Problem& problem, const std::vector<SplitData>& splits,
               const FitOptions& options = {});
 
+/// The initial state split `split` is simulated from: its entry in `estimated` (the estimated
+/// initial states by split name, FitResult::initial_states) when there is one, else
+/// SplitData::setup.x0 with the states of SplitData::x0_from_split taken from the named split's
+/// entry in `estimated` where it has one.
+Eigen::VectorXd InitialStateOf(const SplitData& split,
+                               const std::map<std::string, Eigen::VectorXd>& estimated);
+
 /// Simulates and scores every split with the parameter values `values` (all model parameters,
-/// the model's order), each split from its own initial state (`initial_states` by split name
-/// overrides it), with the problem's integrator; adds the N-step NRMS of [metrics].
+/// the model's order), each split from InitialStateOf(split, initial_states), with the problem's
+/// integrator; adds the N-step NRMS of [metrics].
 std::vector<SplitEvaluation> Simulate(
     const Problem& problem, const std::vector<SplitData>& splits, const Eigen::VectorXd& values,
     const std::map<std::string, Eigen::VectorXd>& initial_states = {});

@@ -147,6 +147,13 @@ struct DataSpec {
   /// the measured output of the same name when there is one, else at 0.
   std::map<std::string, double> initial_state;
   std::map<std::string, std::string> initial_state_variables;
+  /// Per state: estimated (true) or held at its value (false) whatever the method's default
+  /// (`{ free = true }`); states not listed follow the method (fix_initial_state).
+  std::map<std::string, bool> initial_state_free;
+  /// Per state: the initial state estimated on another split (`{ from_split = "name" }`): for
+  /// validation and test splits of records that share an unknown initial state with an
+  /// estimation split; the named split must be an estimation split of another [[data]].
+  std::map<std::string, std::string> initial_state_from_split;
   SourceLocation where;
 };
 
@@ -357,6 +364,9 @@ struct SplitData {
   /// The initial state x0 (see DataSpec::initial_state); Fit adds the state guess when
   /// node_guess = "data".
   ExperimentSetup setup;
+  /// State index -> the estimation split whose estimated initial state this split starts from
+  /// (DataSpec::initial_state_from_split); InitialStateOf applies it.
+  std::map<int, std::string> x0_from_split;
   SourceLocation where;
 };
 

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -57,6 +58,33 @@ TEST(HostileFiles, CsvLinesAndFieldsAreCapped) {
 
 // A MAT v5 file with one double variable 'vir' whose header declares 2e8 x 1 elements
 // (1.6 GB) and which ends after the header: refused as corrupt before matio allocates.
+// A real MAT file cut inside its data (a copy of the EMPS record's first half): matio lists the
+// variables before the cut only, which read as "has no variable 'vir'"; it is a truncated file.
+TEST(HostileFiles, AMatFileCutInsideItsDataIsTruncated) {
+  const std::string source = std::string(GRAYBOX_SHARED_DATA_DIR) + "/emps/DATA_EMPS.mat";
+  std::ifstream in(source, std::ios::binary);
+  ASSERT_TRUE(in.good()) << source;
+  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string whole = TempFile("whole.mat"), cut = TempFile("cut.mat");
+  for (const auto& [path, size] :
+       {std::make_pair(whole, bytes.size()), std::make_pair(cut, bytes.size() / 2)}) {
+    std::ofstream out(path, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(size));
+  }
+  const std::vector<std::string> names = MatFile(whole).VariableNames();
+  ASSERT_FALSE(names.empty());
+  const std::string last = names.back();  // stored after the middle of the file
+  EXPECT_EQ(ErrorOf([&] { MatFile(whole).ReadMatrix(last); }), "(no error)");
+  const std::string e = ErrorOf([&] { MatFile(cut).ReadMatrix(last); });
+  std::filesystem::remove(whole);
+  std::filesystem::remove(cut);
+  EXPECT_NE(e.find("truncated or corrupt MAT file: its data element"), std::string::npos) << e;
+  EXPECT_NE(e.find("but the file ends at byte " + std::to_string(bytes.size() / 2)),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("variable '" + last + "' not found"), std::string::npos) << e;
+}
+
 TEST(HostileFiles, AMatHeaderThatClaimsMoreThanTheFileHoldsIsCorrupt) {
   std::vector<char> bytes(128, ' ');
   const char text[] = "MATLAB 5.0 MAT-file, hostile header test";

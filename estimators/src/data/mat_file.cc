@@ -171,9 +171,56 @@ std::string MatVariableInfo::Describe() const {
   return os.str();
 }
 
+// For a MAT v5/v7 file (not v4, not the HDF5-based v7.3): "" when its top-level data elements
+// (8-byte tags: type, byte count; miMATRIX padded to 8 bytes, miCOMPRESSED not) end within the
+// file, else where one runs past its end. matio stops listing variables at such an element, so a
+// file cut inside its data would otherwise read as one that lacks the variables after the cut.
+static std::string V5Truncation(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char header[128];
+  if (!in.read(header, sizeof header)) return "";
+  if (std::string(header, 10) != "MATLAB 5.0") return "";
+  const bool swap = header[126] == 'M' && header[127] == 'I';
+  auto u32 = [swap](const unsigned char* b) {
+    return swap ? (std::uint32_t(b[0]) << 24 | std::uint32_t(b[1]) << 16 |
+                   std::uint32_t(b[2]) << 8 | std::uint32_t(b[3]))
+                : (std::uint32_t(b[3]) << 24 | std::uint32_t(b[2]) << 16 |
+                   std::uint32_t(b[1]) << 8 | std::uint32_t(b[0]));
+  };
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return "";
+  constexpr std::uint32_t kMiMatrix = 14;
+  std::uintmax_t pos = 128;
+  int element = 0;
+  while (pos + 8 <= size) {
+    unsigned char tag[8];
+    in.seekg(static_cast<std::streamoff>(pos));
+    if (!in.read(reinterpret_cast<char*>(tag), 8)) return "";
+    const std::uint32_t type = u32(tag);
+    std::uintmax_t total = 8;
+    if ((type >> 16) == 0) {
+      total += u32(tag + 4);
+      if (type == kMiMatrix) total = (total + 7) / 8 * 8;
+    }
+    ++element;
+    if (pos + total > size) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "its data element %d at byte %ju declares %ju bytes, but the file ends at "
+                    "byte %ju",
+                    element, pos, total - 8, size);
+      return buf;
+    }
+    pos += total;
+  }
+  return "";
+}
+
 struct MatFile::Impl {
   mat_t* mat = nullptr;
   std::vector<MatVariableInfo> variables;
+  std::string truncation;  // V5Truncation of the file
   ~Impl() {
     cache.reset();  // free matio variables before their file (v7.3 variables hold HDF5 handles)
     if (mat != nullptr) Mat_Close(mat);
@@ -220,6 +267,10 @@ struct MatFile::Impl {
     for (const MatVariableInfo& info : variables) {
       names.push_back(info.name);
       found = found || info.name == parts[0];
+    }
+    if (!found && !truncation.empty()) {
+      Fail(path, "truncated or corrupt MAT file: " + truncation + " (variable '" + parts[0] +
+                     "' not found; readable before the cut: " + JoinNames(names) + ")");
     }
     if (!found) {
       std::string message = "has no variable '" + parts[0] + "'";
@@ -284,6 +335,7 @@ MatFile::MatFile(const std::string& path) : path_(path), impl_(std::make_unique<
                 "expected a MATLAB .mat file (v4, v5, v7 or v7.3), got a file matio cannot open" +
                     MatioDetail());
   }
+  impl_->truncation = V5Truncation(path);
   Mat_Rewind(impl_->mat);
   while (true) {
     VarPtr v(Mat_VarReadNextInfo(impl_->mat));

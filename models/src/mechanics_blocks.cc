@@ -210,6 +210,33 @@ class IntegratorBlock : public BlockBase<IntegratorBlock> {
   }
 };
 
+// ---- signal.first_order_hold --------------------------------------------------------------------
+class FirstOrderHoldBlock : public BlockBase<FirstOrderHoldBlock> {
+ public:
+  explicit FirstOrderHoldBlock(const BlockOptions& options) {
+    CheckOptionKeys(kFirstOrderHold, options, {"unit"});
+    const std::string unit = Word(options, "unit", "1");
+    if (unit.empty()) {
+      throw std::invalid_argument("block '" + std::string(kFirstOrderHold) +
+                                  "': option 'unit' expected a unit, got an empty word");
+    }
+    info_.type = kFirstOrderHold;
+    info_.description =
+        "First-order hold of a sampled signal: an integrator of its forward difference, started "
+        "at its first sample (linear between samples).";
+    info_.reference = "mechanics.h (signal.first_order_hold)";
+    info_.inputs = {{"u", unit, "sampled signal (for the wiring; not used)", -10.0, 10.0},
+                    {"r", unit + "/s", "forward difference of the sampled signal", -1e3, 1e3}};
+    info_.states = {{"y", unit, "the signal, linear between samples", -10.0, 10.0}};
+    info_.outputs = {{"v", unit, "the signal, linear between samples", -10.0, 10.0}};
+  }
+  template <typename Scalar>
+  void Compute(const BlockArgs<Scalar>& a) const {
+    a.xdot[0] = a.u[1];
+    a.y[0] = a.x[0];
+  }
+};
+
 template <typename T>
 BlockFactory Factory() {
   return [](const BlockOptions& options) { return std::make_unique<T>(options); };
@@ -222,6 +249,7 @@ void RegisterMechanicsBlocks(BlockRegistry& registry) {
   registry.Register(kCascadePController, Factory<CascadePController>());
   registry.Register(kIntegratorBlock, Factory<IntegratorBlock>(),
                     {{}, {{"input_unit", "m/s"}, {"output_unit", "m"}}});
+  registry.Register(kFirstOrderHold, Factory<FirstOrderHoldBlock>(), {{}, {{"unit", "V"}}});
   registry.Register(kGainBlock, Factory<GainBlock>(),
                     {{}, {{"input_unit", "V"}, {"output_unit", "N"}}});
 }

@@ -299,11 +299,13 @@ void Model::ReplaceBlock(const std::string& instance, const std::string& type,
 }
 
 void Model::InsertOnSignal(const std::string& signal, const std::string& instance,
-                           std::shared_ptr<const Block> block) {
-  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+                           std::shared_ptr<const Block> block,
+                           const std::vector<std::string>& extra_inputs) {
+  const int inputs = 1 + static_cast<int>(extra_inputs.size());
+  if (!block || block->NumInputs() != inputs || block->NumOutputs() != 1) {
     throw std::invalid_argument(
-        "model '" + name_ + "': InsertOnSignal('" + signal +
-        "'): expected a block with 1 input and 1 output, got " +
+        "model '" + name_ + "': InsertOnSignal('" + signal + "'): expected a block with " +
+        std::to_string(inputs) + " input(s) and 1 output, got " +
         (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
                : std::string("null")));
   }
@@ -324,15 +326,19 @@ void Model::InsertOnSignal(const std::string& signal, const std::string& instanc
     if (output_names_[j] == outputs_[j]) output_names_[j] = replacement;
     outputs_[j] = replacement;
   }
-  Augment(instance, std::move(block), {signal}, {replacement});
+  std::vector<std::string> reads = {signal};
+  reads.insert(reads.end(), extra_inputs.begin(), extra_inputs.end());
+  Augment(instance, std::move(block), reads, {replacement});
 }
 
 void Model::InsertOnInput(const std::string& input, const std::string& instance,
-                          std::shared_ptr<const Block> block) {
-  if (!block || block->NumInputs() != 1 || block->NumOutputs() != 1) {
+                          std::shared_ptr<const Block> block,
+                          const std::vector<std::string>& extra_inputs) {
+  const int arity = 1 + static_cast<int>(extra_inputs.size());
+  if (!block || block->NumInputs() != arity || block->NumOutputs() != 1) {
     throw std::invalid_argument(
-        "model '" + name_ + "': InsertOnInput('" + input +
-        "'): expected a block with 1 input and 1 output, got " +
+        "model '" + name_ + "': InsertOnInput('" + input + "'): expected a block with " +
+        std::to_string(arity) + " input(s) and 1 output, got " +
         (block ? std::to_string(block->NumInputs()) + " and " + std::to_string(block->NumOutputs())
                : std::string("null")));
   }
@@ -353,7 +359,7 @@ void Model::InsertOnInput(const std::string& input, const std::string& instance,
       if (target == input) out = (sign < 0.0 ? "-" : "") + replacement;
     }
   }
-  InsertOnSignal(input, instance, std::move(block));
+  InsertOnSignal(input, instance, std::move(block), extra_inputs);
 }
 
 void Model::InsertOnOutput(const std::string& output, const std::string& instance,

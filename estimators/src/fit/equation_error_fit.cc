@@ -172,7 +172,10 @@ Eigen::MatrixXd StatesFromSpec(const estimators::Problem& problem, const Equatio
     if (it != cache.end()) return it->second;
     Eigen::VectorXd v;
     const int out = IndexOf(m.outputs, name);
-    if (out >= 0) {
+    const auto held = spec.from_inputs.find(name);
+    if (held != spec.from_inputs.end()) {
+      v = experiment.u.col(IndexOf(m.inputs, held->second));  // a first-order hold's samples
+    } else if (out >= 0) {
       v = experiment.y.col(out);
       if (spec.differentiation == "fft") {
         v = estimators::FftLowPass(v, spec.fft_cutoff_bin);

@@ -12,6 +12,8 @@
 #include "graybox/estimators/data/csv_file.h"
 #include "graybox/estimators/data/mat_file.h"
 #include "graybox/estimators/problem/problem_file.h"
+#include "graybox/models/block.h"
+#include "graybox/models/mechanics.h"
 #include "problem/problem_file_internal.h"
 
 namespace graybox::estimators {
@@ -31,8 +33,18 @@ ChannelSource ParseSource(const Section& mapping, const std::string& signal, con
     c.variable = node.as_string()->get();
   } else if (node.is_table()) {
     const Section t(mapping.file(), *node.as_table(), mapping.Join(signal));
-    t.Allow({"variable", "scale", "column", "row", "rate", "constant"});
+    t.Allow({"variable", "scale", "column", "row", "rate", "constant", "hold"});
     c.rate = t.Bool("rate").value_or(false);
+    if (const std::optional<std::string> hold = t.String("hold")) {
+      if (*hold != "zoh" && *hold != "foh") {
+        t.Fail("hold",
+               "expected 'zoh' or 'foh', got '" + *hold + "'" + Suggestion(*hold, {"zoh", "foh"}));
+      }
+      c.first_order_hold = *hold == "foh";
+      if (c.first_order_hold && c.rate) {
+        t.Fail("hold", "hold = 'foh' of a rate signal: map the variable itself with hold = 'foh'");
+      }
+    }
     if (t.Has("constant")) {
       for (const char* other : {"variable", "scale", "column", "row", "rate"}) {
         if (t.Has(other)) {
@@ -160,6 +172,13 @@ void ParseData(const Section& root, Problem* problem) {
     spec.time_variable = time.value_or("");
     spec.inputs = ParseMapping(d, "inputs", problem->built.inputs, "input", csv);
     spec.outputs = ParseMapping(d, "outputs", problem->built.outputs, "output", csv);
+    for (const ChannelSource& c : spec.outputs) {
+      if (c.first_order_hold) {
+        throw ProblemFileError(c.where, "output '" + c.signal +
+                                            "': hold = 'foh' applies to inputs (an output is "
+                                            "compared at its samples)");
+      }
+    }
     for (const Section& s : d.SubArray("splits")) {
       s.Allow({"name", "role", "begin", "end"});
       SplitSpec split;
@@ -249,6 +268,60 @@ void ParseData(const Section& root, Problem* problem) {
     }
     problem->data.push_back(std::move(spec));
   }
+}
+
+void ApplyFirstOrderHolds(Problem* problem) {
+  if (problem->data.empty()) return;
+  const models::StateSpaceModel& m = problem->built;
+  const int nu = m.NumInputs();
+  bool any = false;
+  for (int j = 0; j < nu; ++j) {
+    // One model for every record: the same hold in every [[data]].
+    const ChannelSource& first = problem->data.front().inputs.at(j);
+    for (const DataSpec& spec : problem->data) {
+      const ChannelSource& c = spec.inputs.at(j);
+      if (c.first_order_hold != first.first_order_hold) {
+        throw ProblemFileError(
+            c.where, "input '" + c.signal + "': hold = '" + (c.first_order_hold ? "foh" : "zoh") +
+                         "' here but '" + (first.first_order_hold ? "foh" : "zoh") +
+                         "' in [[data]] '" + problem->data.front().name +
+                         "': every record of one model holds an input the same way");
+      }
+    }
+    if (!first.first_order_hold) continue;
+    any = true;
+    const models::SignalInfo& input = m.inputs[j];
+    const std::string instance = input.name + "_foh";
+    const std::string rate = instance + "_rate";
+    models::BlockOptions options;
+    options.words["unit"] = input.unit.empty() ? "1" : input.unit;
+    try {
+      const auto block = std::shared_ptr<const models::Block>(
+          models::BlockRegistry::Global().Create(models::kFirstOrderHold, options));
+      const double span = input.typical_max - input.typical_min;
+      problem->model.AddInput(rate, block->info().inputs[1].unit,
+                              "forward difference of " + input.name + " (hold = 'foh')", -span,
+                              span);
+      problem->model.InsertOnInput(input.name, instance, block, {rate});
+    } catch (const std::invalid_argument& e) {
+      throw ProblemFileError(first.where, "input '" + input.name + "': hold = 'foh': " + e.what());
+    }
+    problem->blocks.emplace_back(instance, models::kFirstOrderHold);
+    problem->first_order_holds.emplace_back(j, instance + ".y");
+    // Its rate: the forward difference of the same (scaled) variable, in every record.
+    for (DataSpec& spec : problem->data) {
+      ChannelSource r = spec.inputs.at(j);
+      r.signal = rate;
+      r.first_order_hold = false;
+      if (r.constant) {
+        r.constant = 0.0;
+      } else {
+        r.rate = true;
+      }
+      spec.inputs.push_back(r);
+    }
+  }
+  if (any) problem->built = problem->model.Build();
 }
 
 }  // namespace internal
@@ -525,6 +598,12 @@ std::vector<SplitData> LoadData(const Problem& problem) {
           }
         }
       }
+      for (const auto& [input, state] : problem.first_order_holds) {
+        // A first-order hold starts at its input's first sample of the split, held there.
+        const int i = m.StateIndex(state);
+        d.setup.x0_free.resize(m.NumStates(), kInitialStateDefault);
+        d.setup.x0_free[i] = kInitialStateFixed;
+      }
       for (int i = 0; i < m.NumStates(); ++i) {
         auto from = spec.initial_state_from_split.find(m.states[i].name);
         if (from != spec.initial_state_from_split.end()) d.x0_from_split[i] = from->second;
@@ -551,6 +630,9 @@ std::vector<SplitData> LoadData(const Problem& problem) {
         for (int j = 0; j < m.NumOutputs(); ++j) {
           if (m.outputs[j].name == m.states[i].name) d.setup.x0[i] = d.experiment.y(0, j);
         }
+      }
+      for (const auto& [input, state] : problem.first_order_holds) {
+        d.setup.x0[m.StateIndex(state)] = d.experiment.u(0, input);
       }
       splits.push_back(std::move(d));
     }

@@ -163,7 +163,9 @@ StateSourceDefect ResolveStateSources(const models::StateSpaceModel& m, Equation
     for (int i = 0; i < m.NumStates(); ++i) {
       bool kinematic = false;
       for (int j = 0; j < m.NumStates(); ++j) kinematic = kinematic || f[i].IsSame(x[j]);
-      if (!kinematic) spec->residual_states.push_back(states[i]);
+      if (!kinematic && !spec->from_inputs.count(states[i])) {
+        spec->residual_states.push_back(states[i]);
+      }
     }
   }
   if (spec->residual_states.empty() && !states_only) {
@@ -186,7 +188,7 @@ StateSourceDefect ResolveStateSources(const models::StateSpaceModel& m, Equation
   for (int i = 0; i < m.NumStates(); ++i) {
     const std::string& s = states[i];
     if (std::find(outputs.begin(), outputs.end(), s) != outputs.end()) continue;
-    if (spec->differentiate.count(s)) continue;
+    if (spec->differentiate.count(s) || spec->from_inputs.count(s)) continue;
     const int j = IntegralOf(m, i);
     if (j >= 0) {
       spec->differentiate[s] = states[j];
@@ -252,6 +254,9 @@ void ParseEquationError(const Section& e, const Problem& problem, EquationErrorS
       }
       spec->differentiate[state] = source;
     }
+  }
+  for (const auto& [input, state] : problem.first_order_holds) {
+    spec->from_inputs[state] = m.inputs[input].name;
   }
   // Defaults a file may leave out: residual states, inverse inputs, derivative sources.
   const StateSourceDefect defect = ResolveStateSources(m, spec, states_only);

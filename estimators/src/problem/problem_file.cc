@@ -433,6 +433,7 @@ Problem ParseProblem(const std::string& text, const std::string& path) {
   }
   internal::ParseModel(top, &problem);
   internal::ParseData(top, &problem);
+  internal::ApplyFirstOrderHolds(&problem);
   internal::ParseEstimation(top, &problem);
   internal::ParseMetrics(top, &problem);
   internal::ParseDiagnosis(top, &problem);

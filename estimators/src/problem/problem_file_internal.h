@@ -214,6 +214,10 @@ void DefaultNStepChannels(const models::StateSpaceModel& m, MetricsSpec* spec);
 
 void ParseModel(const Section& root, Problem* problem);
 void ParseData(const Section& root, Problem* problem);
+/// For every input mapped with hold = "foh" (the same in every [[data]]): a new model input
+/// "<input>_foh_rate" (the forward difference, mapped in every record), a signal.first_order_hold
+/// "<input>_foh" in series on the input (Model::InsertOnInput), the model built again.
+void ApplyFirstOrderHolds(Problem* problem);
 void ParseEstimation(const Section& root, Problem* problem);
 void ParseMetrics(const Section& root, Problem* problem);
 /// The block of a [[model.blocks]] entry of type "equations", from its `equations` table

@@ -78,6 +78,16 @@
 //   forward difference (r[k+1] - r[k]) / dt of the reference (a data mapping with rate = true,
 //   problem_file.h) and starting it at r[0] reproduces r exactly at the samples and linearly in
 //   between.
+// "signal.first_order_hold"  (a sampled signal interpolated linearly between its samples)
+//     dy/dt = r,   output v = y
+//   inputs u [unit] (-10, 10) the sampled signal, held over each sample by the integrators (read
+//   for the wiring only: the block replaces it for its readers), r [unit/s] (-1e3, 1e3) its
+//   forward difference (u[k+1] - u[k]) / dt, held over the sample; state y [unit], started at
+//   u[0] and held there (ExperimentSetup::x0_free); output v [unit] = y. Exact at every sample
+//   and linear in between with every integrator (a constant rate integrates exactly), so each
+//   formulation and integrator sees the first-order hold without knowing of it. The problem file
+//   inserts it for an input mapped with hold = "foh" (docs/problem-format.md).
+//   option "unit" (word, default "1").
 #pragma once
 
 #include <string>
@@ -88,6 +98,7 @@ inline constexpr char kMassBlock[] = "mechanics.mass";
 inline constexpr char kCascadePController[] = "control.cascade_p";
 inline constexpr char kGainBlock[] = "signal.gain";
 inline constexpr char kIntegratorBlock[] = "signal.integrator";
+inline constexpr char kFirstOrderHold[] = "signal.first_order_hold";
 
 /// Default smoothing width eps [V] of the control.cascade_p saturation (see above).
 inline constexpr double kDefaultSaturationSmoothing = 1e-3;

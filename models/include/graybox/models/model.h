@@ -201,7 +201,8 @@ class Model {
   /// operations throw std::invalid_argument, leaving the model unchanged, for an unknown signal,
   /// a block with the wrong number of connections, or an instance name AddBlock rejects.
   void InsertOnSignal(const std::string& signal, const std::string& instance,
-                      std::shared_ptr<const Block> block);
+                      std::shared_ptr<const Block> block,
+                      const std::vector<std::string>& extra_inputs = {});
   void InsertOnSignal(const std::string& signal, const std::string& instance,
                       const std::string& type, const BlockOptions& options = {});
 
@@ -211,11 +212,14 @@ class Model {
   /// "<instance>.out", and every block output that added to (or subtracted from) `input` adds to
   /// "<instance>.out" instead, so "<instance>.out" = block(input) + those contributions; every
   /// block input and model output that read `input` reads "<instance>.out". On an input nothing
-  /// adds to it is InsertOnSignal. Parameters start at their neutral values. Throws
-  /// std::invalid_argument, leaving the model unchanged, for a name that is not a model input, a
-  /// block that is not 1-in 1-out, or an instance name AddBlock rejects.
+  /// adds to it is InsertOnSignal. Parameters start at their neutral values. A block with more
+  /// inputs reads `extra_inputs` on inputs 2, 3, ... (the first-order hold reads the input's
+  /// rate). Throws std::invalid_argument, leaving the model unchanged, for a name that is not a
+  /// model input, a block without 1 + extra_inputs.size() inputs and 1 output, or an instance
+  /// name AddBlock rejects.
   void InsertOnInput(const std::string& input, const std::string& instance,
-                     std::shared_ptr<const Block> block);
+                     std::shared_ptr<const Block> block,
+                     const std::vector<std::string>& extra_inputs = {});
 
   /// Puts a one-input one-output block in series on the measured channel `output` only (a sensor
   /// error): the block reads the channel's signal and the channel then reports "<instance>.out"

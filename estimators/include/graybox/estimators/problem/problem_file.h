@@ -106,6 +106,9 @@ struct ChannelSource {
   /// sample repeating the one before: held over each sample and integrated (signal.integrator)
   /// it reproduces v exactly at the samples and linearly in between (a first-order hold).
   bool rate = false;
+  /// hold = "foh" (inputs only): the input is linear between its samples instead of held over
+  /// each (ParseProblem inserts a signal.first_order_hold on it; mechanics.h).
+  bool first_order_hold = false;
   /// A signal that is constant over the record (`constant = 0.0`, e.g. an input the file did not
   /// record because it was zero); `variable` is then empty.
   std::optional<double> constant;
@@ -177,6 +180,9 @@ struct EquationErrorSpec {
   /// state -> the signal it is the time derivative of (default: inferred from the kinematic
   /// equations dq/dt = qd of the model).
   std::map<std::string, std::string> differentiate;
+  /// state -> the model input whose samples it equals (the state of a hold = "foh" input's
+  /// signal.first_order_hold, Problem::first_order_holds): from data, never a residual state.
+  std::map<std::string, std::string> from_inputs;
   /// "central": Butterworth low-pass (lowpass_hz) and central differences; "fft": seed 000's
   /// eq. 8 for periodic records: outputs, inputs and every derivative through the ideal FFT
   /// low-pass keeping the bins |m| < fft_cutoff_bin (preprocessing.h FftLowPass, FftDerivative).
@@ -342,6 +348,10 @@ struct Problem {
   /// output, before [model.parameters]).
   std::vector<models::Augmentation> augmentations;
   std::vector<DataSpec> data;
+  /// The inputs mapped with hold = "foh": (index of the sampled model input, the state of its
+  /// signal.first_order_hold), which LoadData starts at the input's first sample of each split
+  /// and holds there.
+  std::vector<std::pair<int, std::string>> first_order_holds;
   EstimationSpec estimation;
   MetricsSpec metrics;
   /// [diagnosis] (empty when the file has none).

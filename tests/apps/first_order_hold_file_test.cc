@@ -151,6 +151,33 @@ TEST(FirstOrderHold, AFitIsExactToTheInterpolationInEveryFormulation) {
   }
 }
 
+// Equation error evaluates the model at the samples, where both holds give the same input: the
+// first-order hold's state is read from the input's samples, and the fit is the zero-order hold's.
+TEST(FirstOrderHold, EquationErrorReadsTheHoldsStateFromTheInput) {
+  ScratchDir dir;
+  WriteText(dir / "d.csv", Csv(0.1));
+  const std::string estimation =
+      "[estimation]\nmethod = \"equation_error\"\nsolver = \"ipopt\"\n"
+      "[estimation.equation_error]\nform = \"state_derivative\"\n";
+  double k[2];
+  int i = 0;
+  for (const std::string hold : {"zoh", "foh"}) {
+    WriteText(dir / "p.toml", Problem(hold, estimation, 1.0));
+    const estimators::Problem p = LoadProblem(dir / "p.toml");
+    if (hold == "foh") {
+      EXPECT_EQ(p.estimation.equation_error.residual_states, std::vector<std::string>{"int.y"});
+      EXPECT_EQ(p.estimation.equation_error.from_inputs.at("u_foh.y"), "u");
+    }
+    FitOptions o;
+    o.compute_covariance = false;
+    const FitResult fit = Fit(p, LoadData(p), o);
+    ASSERT_TRUE(fit.solver_result.success) << fit.BriefReport();
+    k[i++] = fit.Parameter("g.k").value;
+  }
+  constexpr double kSame = 1e-9;  // relative; the same residuals up to rounding
+  EXPECT_NEAR(k[1], k[0], kSame * kGain);
+}
+
 TEST(FirstOrderHold, TheHoldIsCheckedWhereItIsWritten) {
   ScratchDir dir;
   WriteText(dir / "d.csv", Csv(0.1));

@@ -101,29 +101,29 @@ BaseBuild BuildDrive(const std::vector<std::string>& w) {
       m->AddBlock("coulomb", models::kCoulombFriction, CoulombOptions("prismatic", kDriveSteepness),
                   {"load.qd"}, {load_force});
     } else if (truth) {
-      m->AddBlock("dry", Make<DryFrictionBlock>(), {"load.qd"}, {load_force});
+      m->AddBlock("dry", Make<DryFrictionBlock>(true), {"load.qd"}, {load_force});
     }
     if (!Has(w, "asymmetric_friction")) {
       m->AddBlock("offset", models::kOffsetFriction, Motion("prismatic"), {"load.qd"},
                   {load_force});
     } else if (truth) {
-      m->AddBlock("asymmetry", Make<DryFrictionBlock>(), {"load.qd"}, {load_force});
+      m->AddBlock("asymmetry", Make<DryFrictionBlock>(true), {"load.qd"}, {load_force});
     }
     if (!truth) continue;
     if (Has(w, "stribeck")) {
-      m->AddBlock("stribeck", Make<DryFrictionBlock>(), {"load.qd"}, {load_force});
+      m->AddBlock("stribeck", Make<DryFrictionBlock>(true), {"load.qd"}, {load_force});
     }
     if (Has(w, "power_law_viscous")) {
-      m->AddBlock("power_law", Make<PowerLawBlock>(), {"load.qd"}, {load_force});
+      m->AddBlock("power_law", Make<PowerLawBlock>(true), {"load.qd"}, {load_force});
     }
     if (Has(w, "ripple")) {
-      m->AddBlock("cogging", Make<CoggingBlock>(), {"load.q"}, {load_force});
+      m->AddBlock("cogging", Make<CoggingBlock>(true), {"load.q"}, {load_force});
     }
     if (Has(w, "friction_drift")) {
-      m->AddBlock("drift", Make<FrictionDriftBlock>(), {"load.qd"}, {load_force});
+      m->AddBlock("drift", Make<FrictionDriftBlock>(true), {"load.qd"}, {load_force});
     }
     if (Has(w, "periodic_disturbance")) {
-      m->AddBlock("disturbance", Make<PeriodicForceBlock>(), {}, {load_force});
+      m->AddBlock("disturbance", Make<PeriodicForceBlock>(true), {}, {load_force});
     }
   }
   for (models::Model* m : {&b.nominal, &b.truth}) {

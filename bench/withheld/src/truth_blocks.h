@@ -5,7 +5,8 @@
 //
 // Sign convention as friction.h: friction outputs have the sign of the velocity and are
 // SUBTRACTED ("-force"); disturbance outputs are subtracted the same way. Units are given for a
-// rotational axis (rad, rad/s, N m); on a prismatic axis read m, m/s, N.
+// rotational axis (rad, rad/s, N m); the friction, ripple, drift and disturbance blocks take
+// `prismatic` = true for a slide (m, m/s, N).
 //
 // The hard sign. sgn(v) = (2/pi) atan(v / vd): odd, |sgn| < 1, within 1 % of sign(v) above
 // |v| = 64 vd. The library's blocks use tanh(s v), which reaches sign(v) exponentially; with
@@ -103,6 +104,17 @@ inline models::SignalInfo TruthSignal(std::string name, std::string unit, std::s
   return s;
 }
 
+// The unit of a rotational axis quantity, or of its prismatic counterpart (rad -> m, rad/s ->
+// m/s, N m -> N) for a block on a slide: Model::Build refuses a rotational port on a prismatic
+// signal.
+inline std::string AxisUnit(const std::string& rotational, bool prismatic) {
+  if (!prismatic) return rotational;
+  if (rotational == "rad") return "m";
+  if (rotational == "rad/s") return "m/s";
+  if (rotational == "N m") return "N";
+  return rotational;
+}
+
 // (2/pi) atan(v / vd), the truth's hard sign.
 template <typename Scalar>
 Scalar HardSign(const Scalar& v, const Scalar& vd) {
@@ -135,15 +147,16 @@ class GravityBlock : public models::BlockBase<GravityBlock> {
 
 class DryFrictionBlock : public models::BlockBase<DryFrictionBlock> {
  public:
-  DryFrictionBlock() {
+  explicit DryFrictionBlock(bool prismatic = false) {
     info_.type = "withheld.dry_friction";
     info_.description =
         "Direction-dependent Coulomb levels with a Stribeck hump of exponent a, "
         "hard (atan) sign.";
     info_.reference = "bench/withheld/src/truth_blocks.h";
-    info_.inputs = {TruthSignal("qd", "rad/s", "velocity", -20, 20, SignalRole::kVelocity)};
-    info_.outputs = {
-        TruthSignal("tau", "N m", "friction (subtract it)", -1, 1, SignalRole::kForce)};
+    info_.inputs = {TruthSignal("qd", AxisUnit("rad/s", prismatic), "velocity", -20, 20,
+                                SignalRole::kVelocity)};
+    info_.outputs = {TruthSignal("tau", AxisUnit("N m", prismatic), "friction (subtract it)", -1, 1,
+                                 SignalRole::kForce)};
     info_.parameters = {
         TruthParameter("fc_pos", "N m", "Coulomb level in positive motion", 0.0, 0.0, kInf),
         TruthParameter("fc_neg", "N m", "Coulomb level in negative motion", 0.0, 0.0, kInf),
@@ -169,13 +182,14 @@ class DryFrictionBlock : public models::BlockBase<DryFrictionBlock> {
 
 class PowerLawBlock : public models::BlockBase<PowerLawBlock> {
  public:
-  PowerLawBlock() {
+  explicit PowerLawBlock(bool prismatic = false) {
     info_.type = "withheld.power_law";
     info_.description = "Power-law viscous friction c sgn(v) |v/v0|^k with a hard (atan) sign.";
     info_.reference = "bench/withheld/src/truth_blocks.h";
-    info_.inputs = {TruthSignal("qd", "rad/s", "velocity", -20, 20, SignalRole::kVelocity)};
-    info_.outputs = {
-        TruthSignal("tau", "N m", "friction (subtract it)", -1, 1, SignalRole::kForce)};
+    info_.inputs = {TruthSignal("qd", AxisUnit("rad/s", prismatic), "velocity", -20, 20,
+                                SignalRole::kVelocity)};
+    info_.outputs = {TruthSignal("tau", AxisUnit("N m", prismatic), "friction (subtract it)", -1, 1,
+                                 SignalRole::kForce)};
     info_.parameters = {TruthParameter("c", "N m", "torque at |v| = v0", 0.0, 0.0, kInf),
                         TruthParameter("k", "1", "exponent", 0.5, 0.05, 5.0),
                         TruthParameter("v0", "rad/s", "reference speed", 1.0, 1e-9, kInf),
@@ -277,12 +291,14 @@ class CouplingBlock : public models::BlockBase<CouplingBlock> {
 
 class CoggingBlock : public models::BlockBase<CoggingBlock> {
  public:
-  CoggingBlock() {
+  explicit CoggingBlock(bool prismatic = false) {
     info_.type = "withheld.cogging";
     info_.description = "Cogging/ripple with two harmonics of the period P.";
     info_.reference = "bench/withheld/src/truth_blocks.h";
-    info_.inputs = {TruthSignal("q", "rad", "position", -3, 3, SignalRole::kPosition)};
-    info_.outputs = {TruthSignal("tau", "N m", "ripple (subtract it)", -1, 1, SignalRole::kForce)};
+    info_.inputs = {
+        TruthSignal("q", AxisUnit("rad", prismatic), "position", -3, 3, SignalRole::kPosition)};
+    info_.outputs = {TruthSignal("tau", AxisUnit("N m", prismatic), "ripple (subtract it)", -1, 1,
+                                 SignalRole::kForce)};
     info_.parameters = {TruthParameter("a1", "N m", "first amplitude", 0, -kInf, kInf),
                         TruthParameter("a2", "N m", "second amplitude", 0, -kInf, kInf),
                         TruthParameter("P", "rad", "period", 1, 1e-9, kInf),
@@ -300,14 +316,15 @@ class CoggingBlock : public models::BlockBase<CoggingBlock> {
 
 class FrictionDriftBlock : public models::BlockBase<FrictionDriftBlock> {
  public:
-  FrictionDriftBlock() {
+  explicit FrictionDriftBlock(bool prismatic = false) {
     info_.type = "withheld.friction_drift";
     info_.description = "Coulomb level drifting linearly with time: fc r (t/T) sgn(v).";
     info_.reference = "bench/withheld/src/truth_blocks.h";
     info_.states = {TruthSignal("t_c", "s", "clock", 0, 10, SignalRole::kNone)};
-    info_.inputs = {TruthSignal("qd", "rad/s", "velocity", -20, 20, SignalRole::kVelocity)};
-    info_.outputs = {
-        TruthSignal("tau", "N m", "friction (subtract it)", -1, 1, SignalRole::kForce)};
+    info_.inputs = {TruthSignal("qd", AxisUnit("rad/s", prismatic), "velocity", -20, 20,
+                                SignalRole::kVelocity)};
+    info_.outputs = {TruthSignal("tau", AxisUnit("N m", prismatic), "friction (subtract it)", -1, 1,
+                                 SignalRole::kForce)};
     info_.parameters = {TruthParameter("fc", "N m", "drifting level", 0, 0, kInf),
                         TruthParameter("r", "1", "relative change over T", 0, -kInf, kInf),
                         TruthParameter("T", "s", "drift time", 1, 1e-9, kInf),
@@ -322,13 +339,13 @@ class FrictionDriftBlock : public models::BlockBase<FrictionDriftBlock> {
 
 class PeriodicForceBlock : public models::BlockBase<PeriodicForceBlock> {
  public:
-  PeriodicForceBlock() {
+  explicit PeriodicForceBlock(bool prismatic = false) {
     info_.type = "withheld.periodic_force";
     info_.description = "A sinusoidal disturbance A sin(2 pi f t + phi) independent of the motion.";
     info_.reference = "bench/withheld/src/truth_blocks.h";
     info_.states = {TruthSignal("t_c", "s", "clock", 0, 10, SignalRole::kNone)};
-    info_.outputs = {
-        TruthSignal("tau", "N m", "disturbance (subtract it)", -1, 1, SignalRole::kForce)};
+    info_.outputs = {TruthSignal("tau", AxisUnit("N m", prismatic), "disturbance (subtract it)", -1,
+                                 1, SignalRole::kForce)};
     info_.parameters = {TruthParameter("A", "N m", "amplitude", 0, -kInf, kInf),
                         TruthParameter("f", "Hz", "frequency", 1, 0, kInf),
                         TruthParameter("phi", "rad", "phase", 0, -kInf, kInf)};

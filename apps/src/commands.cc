@@ -58,6 +58,23 @@ int Guarded(const std::function<int()>& body) {
   }
 }
 
+// Runs a stage that formulates and solves `problem`: a std::invalid_argument it raises (estimation
+// data that cannot determine the free parameters, a filter the record cannot take) is reported at
+// the problem file's [estimation] table, as the loader reports its own errors (file:line:column).
+template <typename Fn>
+auto AtEstimation(const Problem& problem, Fn&& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const estimators::ProblemFileError&) {
+    throw;
+  } catch (const std::invalid_argument& e) {
+    estimators::SourceLocation where = problem.estimation.where;
+    if (where.file.empty()) where.file = problem.path;
+    if (where.table.empty()) where.table = "estimation";
+    throw estimators::ProblemFileError(where, e.what());
+  }
+}
+
 void PrintProblem(const Problem& problem, const std::vector<SplitData>& splits) {
   const models::StateSpaceModel& m = problem.built;
   int free = 0;
@@ -151,7 +168,7 @@ int RunFit(const CommandOptions& o) {
     options.check_derivatives = o.check_derivatives;
     options.max_solve_seconds = o.max_seconds;
     options.progress = Progress;
-    report.fit = estimators::Fit(problem, splits, options);
+    report.fit = AtEstimation(problem, [&] { return estimators::Fit(problem, splits, options); });
     report.has_fit = true;
     const estimators::FitResult& fit = report.fit;
     for (const auto& phase : fit.seconds) report.seconds.push_back(phase);
@@ -240,7 +257,8 @@ int RunDiagnose(const CommandOptions& o) {
     CheckSplitFileNames(splits);
     PrintProblem(problem, splits);
     options.progress = StampedProgress(total, "  ");
-    const diagnosis::DiagnosisReport d = diagnosis::Diagnose(problem, splits, options);
+    const diagnosis::DiagnosisReport d =
+        AtEstimation(problem, [&] { return diagnosis::Diagnose(problem, splits, options); });
     std::cout << Printable(d.FullReport());
     namespace fs = std::filesystem;
     std::vector<std::pair<std::string, std::string>> run = RunMetadata(o);

@@ -246,6 +246,21 @@ TEST_F(GeneratedCli, ATypoInAConnectionIsAnErrorNotADisconnectedBlock) {
   }
 }
 
+// An error of the formulation stage (here: a one-sample estimation split cannot determine the
+// free parameters) names the problem file and its [estimation] table, as the loader's errors do.
+TEST_F(GeneratedCli, AFormulationErrorNamesTheProblemFile) {
+  std::string text = PushedProblem();
+  const std::string split = "{ name = \"first\", role = \"estimation\", end = 150 }";
+  text.replace(text.find(split), split.size(),
+               "{ name = \"first\", role = \"estimation\", end = 1 }");
+  const RunResult r = Fit(text);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("pushed.toml:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[estimation] problem 'pushed': the estimation splits 'first'"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST_F(GeneratedCli, FitRecoversKnownParametersAndSimulateReadsTheResult) {
   const RunResult r = Fit(PushedProblem(), "out", "--check-derivatives");
   ASSERT_EQ(r.exit_code, 0) << r.output;

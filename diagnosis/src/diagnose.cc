@@ -327,7 +327,7 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
         // parameters the re-fit held (stage B not kept, or not a contender) stay held, or every
         // later re-fit would free them from a start their own stage B did not accept (a held
         // Stribeck velocity freed in round 2 made every re-fit of a series elastic actuator's
-        // second round end in Ipopt's Restoration_Failed).
+        // second round fail: three in Ipopt's Restoration_Failed, two at the iteration limit).
         Candidate accepted = best->candidate;
         accepted.refit.clear();
         for (const std::string& q : best->candidate.refit) {

@@ -267,6 +267,7 @@ TEST(DiagnosisTable, MetadataAxesCanBeSwitchedOff) {
       "[[model.blocks]]\n"
       "instance = \"friction\"\n"
       "type = \"friction.viscous\"\n"
+      "options = { motion = \"prismatic\" }\n"
       "inputs = [\"load.qd\"]\n"
       "outputs = [\"-force\"]\n"
       "[[data]]\n"

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "graybox/estimators/nlp/nlp.h"
+#include "graybox/estimators/nlp/nlp_check.h"
 #include "graybox/estimators/solvers/solvers.h"
 #include "graybox/expr/expr.h"
 
@@ -174,6 +175,85 @@ TEST(Nlp, NonFiniteTrialPointsAreReturnedToTheSolver) {
   const SolverResult r = SolveWithIpopt(nlp);
   EXPECT_TRUE(r.success) << r.FullReport();
   EXPECT_GT(r.w[0], 0.0);
+}
+
+// One group of kInstances elements (more than two of the Nlp's batches of 128 instances, so full
+// batches and a shorter last one): z = (a, x_e) with a shared, d = (t_e, y_e);
+// f_e = 0.1 sin(a x_e), c_e = x_e - a t_e, r_e = a exp(x_e t_e) - y_e + log(x_e).
+constexpr int kInstances = 300;
+double ElementF(double a, double x) { return 0.1 * std::sin(a * x); }
+double ElementC(double a, double x, double t) { return x - a * t; }
+double ElementR(double a, double x, double t, double y) {
+  return a * std::exp(x * t) - y + std::log(x);
+}
+
+Nlp ManyInstances() {
+  const std::vector<Expr> z = Expr::Symbols("ax", 2);
+  const std::vector<Expr> d = Expr::Symbols("ty", 2);
+  const Function fn("element", {{"z", z}, {"d", d}},
+                    {{"f", {0.1 * sin(z[0] * z[1])}},
+                     {"c", {z[1] - z[0] * d[0]}},
+                     {"r", {z[0] * exp(z[1] * d[0]) - d[1] + log(z[1])}}});
+  Eigen::VectorXd w0(1 + kInstances);
+  w0[0] = 0.8;
+  for (int e = 0; e < kInstances; ++e) w0[1 + e] = 0.5 + 0.003 * e;
+  Nlp nlp(w0, Eigen::VectorXd::Constant(w0.size(), -1e20),
+          Eigen::VectorXd::Constant(w0.size(), 1e20));
+  ElementGroup g;
+  g.name = "many";
+  g.fn = fn;
+  g.index = Eigen::MatrixXi(2, kInstances);
+  g.data = Eigen::MatrixXd(2, kInstances);
+  for (int e = 0; e < kInstances; ++e) {
+    g.index(0, e) = 0;
+    g.index(1, e) = 1 + e;
+    g.data(0, e) = 0.01 * e;
+    g.data(1, e) = std::cos(0.05 * e);
+  }
+  g.lbc = Eigen::VectorXd::Zero(1);
+  g.ubc = Eigen::VectorXd::Zero(1);
+  nlp.AddGroup(g);
+  return nlp;
+}
+
+// The instances are evaluated in batches (several points per tape instruction): values equal the
+// element formulas in doubles to rounding in every batch, the derivatives pass the
+// finite-difference checks, and a non-finite value names its instance.
+TEST(Nlp, BatchedInstancesMatchTheElementFormulas) {
+  constexpr double kRounding = 1e-13;  // relative; the batch tape may round differently
+  const Nlp nlp = ManyInstances();
+  const Eigen::VectorXd w = nlp.w0();
+  const double a = w[0];
+  double f = 0.0, f_expected = 0.0;
+  ASSERT_TRUE(nlp.Objective(w.data(), &f).ok);
+  Eigen::VectorXd c(kInstances), r(kInstances);
+  ASSERT_TRUE(nlp.Constraints(w.data(), c.data()).ok);
+  ASSERT_TRUE(nlp.Residuals(w.data(), r.data()).ok);
+  for (int e = 0; e < kInstances; ++e) {
+    const double x = w[1 + e], t = 0.01 * e, y = std::cos(0.05 * e);
+    const double re = ElementR(a, x, t, y);
+    f_expected += ElementF(a, x) + 0.5 * re * re;
+    EXPECT_NEAR(c[e], ElementC(a, x, t), kRounding * std::max(1.0, std::fabs(c[e]))) << e;
+    EXPECT_NEAR(r[e], re, kRounding * std::max(1.0, std::fabs(re))) << e;
+  }
+  EXPECT_NEAR(f, f_expected, kRounding * std::fabs(f_expected));
+  NlpDerivativeCheckOptions check;
+  check.leading_columns = 1;
+  check.sampled_columns = 40;  // instances spread over every batch
+  for (const auto& result : CheckNlpDerivatives(nlp, w, check)) {
+    EXPECT_TRUE(result.ok) << result.FullReport();
+    EXPECT_GT(result.entries_checked, 0) << result.what;
+  }
+  Eigen::VectorXd bad = w;
+  bad[1 + 200] = -1.0;  // log of a negative number in instance 200 (the second batch)
+  const NlpEvalStatus s = nlp.Residuals(bad.data(), r.data());
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("group 'many' instance 200:"), std::string::npos) << s.message;
+  Eigen::VectorXd h(nlp.HessianRows().size());
+  const Eigen::VectorXd lambda = Eigen::VectorXd::Ones(kInstances);
+  const NlpEvalStatus hs = nlp.HessianValues(bad.data(), 1.0, lambda.data(), h.data());
+  EXPECT_FALSE(hs.ok);
+  EXPECT_NE(hs.message.find("group 'many' instance 200:"), std::string::npos) << hs.message;
 }
 
 TEST(Nlp, InfeasibleBoundsAndBadSizesAreRejected) {

@@ -16,6 +16,13 @@ using expr::FunctionIo;
 using expr::Sparsity;
 using expr::Workspace;
 
+namespace {
+// The inputs and outputs of one Function::EvaluateBatch call.
+struct BatchScratch {
+  std::vector<Eigen::MatrixXd> in, out;
+};
+}  // namespace
+
 // Per-group derivative Functions, workspaces and scatter maps.
 struct Nlp::Prepared {
   int nz = 0, nd = 0, nc = 0, nr = 0;
@@ -37,6 +44,9 @@ struct Nlp::Prepared {
   // Mutable scratch (evaluation is not thread-safe per Nlp).
   mutable Workspace ws_obj, ws_grad, ws_c, ws_jc, ws_r, ws_jr, ws_h;
   mutable Eigen::VectorXd z, buffer;
+  // Inputs and outputs of batched evaluation (EvalBatched), for chunks of kBatch instances and
+  // for the last, shorter chunk, so that repeated evaluations do not allocate.
+  mutable BatchScratch batch_full, batch_tail;
 };
 
 namespace {
@@ -462,6 +472,10 @@ void Nlp::CheckBounds() const {
 
 namespace {
 
+// Instances per batched call: enough to amortise a call, few enough for the inputs and outputs
+// to stay in cache.
+constexpr int kBatch = 128;
+
 // Gathers z for instance e and evaluates `fn` into `out` (one output).
 EvalStatus EvalInstance(const Function& fn, const ElementGroup& g, int e, const double* w,
                         Eigen::VectorXd* z, Workspace* ws, double* out,
@@ -472,6 +486,57 @@ EvalStatus EvalInstance(const Function& fn, const ElementGroup& g, int e, const 
   return fn.Evaluate(in, outs, ws);
 }
 
+// Evaluates `fn` (inputs z, d and, when it has them, sigma and lambda) for every instance of
+// `g` with Function::EvaluateBatch, kBatch instances per call, and calls sink(e, out) with
+// instance e's output (OutputSize(0) doubles) in instance order. `lambda` points to the first
+// instance's nc multipliers. The instances run on the batch tape (several points per
+// instruction), which gives the single-point results up to rounding. On a non-finite output the
+// chunk is evaluated again point by point to name the first failing instance, as EvalInstance
+// does; `single_ws` is the workspace for that.
+template <typename Sink>
+EvalStatus EvalBatched(const Function& fn, const ElementGroup& g, const double* w, int nc,
+                       double sigma, const double* lambda, Workspace* ws, Workspace* single_ws,
+                       Eigen::VectorXd* z, double* single_out, BatchScratch* full,
+                       BatchScratch* tail, int* failed_instance, Sink&& sink) {
+  const int n = g.NumInstances();
+  const int ni = fn.NumInputs();
+  const int nz = static_cast<int>(g.index.rows());
+  for (int e0 = 0; e0 < n; e0 += kBatch) {
+    const int m = std::min(kBatch, n - e0);
+    BatchScratch& b = m == kBatch ? *full : *tail;
+    b.in.resize(ni);
+    b.in[0].resize(nz, m);
+    for (int e = 0; e < m; ++e) {
+      for (int k = 0; k < nz; ++k) b.in[0](k, e) = w[g.index(k, e0 + e)];
+    }
+    b.in[1] = g.data.middleCols(e0, m);
+    if (ni > 2) b.in[2].setConstant(1, m, sigma);
+    if (ni > 3) {
+      b.in[3].resize(nc, m);
+      for (int e = 0; e < m; ++e) {
+        for (int k = 0; k < nc; ++k) {
+          b.in[3](k, e) = lambda[static_cast<std::size_t>(e0 + e) * nc + k];
+        }
+      }
+    }
+    const EvalStatus s = fn.EvaluateBatch(b.in, &b.out, ws);
+    if (!s.ok) {
+      for (int e = e0; e < e0 + m; ++e) {
+        const EvalStatus one = EvalInstance(fn, g, e, w, z, single_ws, single_out, &sigma,
+                                            lambda + static_cast<std::size_t>(e) * nc);
+        if (!one.ok) {
+          *failed_instance = e;
+          return one;
+        }
+      }
+      *failed_instance = e0;
+      return s;
+    }
+    for (int e = 0; e < m; ++e) sink(e0 + e, b.out[0].col(e).data());
+  }
+  return {};
+}
+
 }  // namespace
 
 NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
@@ -480,12 +545,11 @@ NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
     if (!p.has_objective) continue;
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      double v = 0.0;
-      const EvalStatus s = EvalInstance(p.objective, groups_[g], e, w, &p.z, &p.ws_obj, &v);
-      if (!s.ok) return Fail(groups_[g], e, s);
-      sum += v;
-    }
+    int failed = -1;
+    const EvalStatus s = EvalBatched(p.objective, groups_[g], w, 0, 0.0, nullptr, &p.ws_obj,
+                                     &p.ws_obj, &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail,
+                                     &failed, [&sum](int, const double* v) { sum += *v; });
+    if (!s.ok) return Fail(groups_[g], failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {
     const NlpEvalStatus s = EvaluateExternal(b, w, false);
@@ -502,12 +566,15 @@ NlpEvalStatus Nlp::Gradient(const double* w, double* grad) const {
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
     if (!p.has_objective) continue;
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      const EvalStatus s =
-          EvalInstance(p.gradient, groups_[g], e, w, &p.z, &p.ws_grad, p.buffer.data());
-      if (!s.ok) return Fail(groups_[g], e, s);
-      for (int k = 0; k < p.nz; ++k) grad[groups_[g].index(k, e)] += p.buffer[k];
-    }
+    const ElementGroup& group = groups_[g];
+    int failed = -1;
+    const EvalStatus s = EvalBatched(p.gradient, group, w, 0, 0.0, nullptr, &p.ws_grad, &p.ws_grad,
+                                     &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail, &failed,
+                                     [&](int e, const double* v) {
+                                       for (int k = 0; k < p.nz; ++k)
+                                         grad[group.index(k, e)] += v[k];
+                                     });
+    if (!s.ok) return Fail(group, failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {
     const NlpEvalStatus s = EvaluateExternal(b, w, true);
@@ -523,11 +590,13 @@ NlpEvalStatus Nlp::Constraints(const double* w, double* c) const {
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
     if (p.nc == 0) continue;
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      const EvalStatus s = EvalInstance(p.constraints, groups_[g], e, w, &p.z, &p.ws_c,
-                                        c + p.constraint_offset + e * p.nc);
-      if (!s.ok) return Fail(groups_[g], e, s);
-    }
+    int failed = -1;
+    const EvalStatus s = EvalBatched(
+        p.constraints, groups_[g], w, 0, 0.0, nullptr, &p.ws_c, &p.ws_c, &p.z, p.buffer.data(),
+        &p.batch_full, &p.batch_tail, &failed, [&](int e, const double* v) {
+          std::copy(v, v + p.nc, c + p.constraint_offset + static_cast<std::size_t>(e) * p.nc);
+        });
+    if (!s.ok) return Fail(groups_[g], failed, s);
   }
   return {};
 }
@@ -536,11 +605,13 @@ NlpEvalStatus Nlp::Residuals(const double* w, double* r) const {
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
     if (p.nr == 0) continue;
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      const EvalStatus s = EvalInstance(p.residuals, groups_[g], e, w, &p.z, &p.ws_r,
-                                        r + p.residual_offset + e * p.nr);
-      if (!s.ok) return Fail(groups_[g], e, s);
-    }
+    int failed = -1;
+    const EvalStatus s = EvalBatched(
+        p.residuals, groups_[g], w, 0, 0.0, nullptr, &p.ws_r, &p.ws_r, &p.z, p.buffer.data(),
+        &p.batch_full, &p.batch_tail, &failed, [&](int e, const double* v) {
+          std::copy(v, v + p.nr, r + p.residual_offset + static_cast<std::size_t>(e) * p.nr);
+        });
+    if (!s.ok) return Fail(groups_[g], failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {
     const NlpEvalStatus s = EvaluateExternal(b, w, false);
@@ -556,12 +627,15 @@ NlpEvalStatus Nlp::JacobianValues(const double* w, double* values) const {
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Prepared& p = *prepared_[g];
     const int nnz = p.jac_c_sp.nnz();
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      if (nnz == 0) continue;
-      const EvalStatus s = EvalInstance(p.jac_c, groups_[g], e, w, &p.z, &p.ws_jc, values + offset);
-      if (!s.ok) return Fail(groups_[g], e, s);
-      offset += nnz;
-    }
+    if (nnz == 0) continue;
+    int failed = -1;
+    const EvalStatus s = EvalBatched(p.jac_c, groups_[g], w, 0, 0.0, nullptr, &p.ws_jc, &p.ws_jc,
+                                     &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail, &failed,
+                                     [&](int, const double* v) {
+                                       std::copy(v, v + nnz, values + offset);
+                                       offset += nnz;
+                                     });
+    if (!s.ok) return Fail(groups_[g], failed, s);
   }
   return {};
 }
@@ -571,12 +645,15 @@ NlpEvalStatus Nlp::ResidualJacobianValues(const double* w, double* values) const
     const Prepared& p = *prepared_[g];
     const int nnz = p.jac_r_sp.nnz();
     std::size_t offset = p.rjac_offset;
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      if (nnz == 0) continue;
-      const EvalStatus s = EvalInstance(p.jac_r, groups_[g], e, w, &p.z, &p.ws_jr, values + offset);
-      if (!s.ok) return Fail(groups_[g], e, s);
-      offset += nnz;
-    }
+    if (nnz == 0) continue;
+    int failed = -1;
+    const EvalStatus s = EvalBatched(p.jac_r, groups_[g], w, 0, 0.0, nullptr, &p.ws_jr, &p.ws_jr,
+                                     &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail, &failed,
+                                     [&](int, const double* v) {
+                                       std::copy(v, v + nnz, values + offset);
+                                       offset += nnz;
+                                     });
+    if (!s.ok) return Fail(groups_[g], failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {
     const NlpEvalStatus s = EvaluateExternal(b, w, true);
@@ -595,14 +672,14 @@ NlpEvalStatus Nlp::HessianValues(const double* w, double sigma, const double* la
     const Prepared& p = *prepared_[g];
     const int nnz = p.hess_sp.nnz();
     if (nnz == 0) continue;
-    for (int e = 0; e < groups_[g].NumInstances(); ++e) {
-      const double* lam = lambda + p.constraint_offset + e * p.nc;
-      const EvalStatus s =
-          EvalInstance(p.hessian, groups_[g], e, w, &p.z, &p.ws_h, p.buffer.data(), &sigma, lam);
-      if (!s.ok) return Fail(groups_[g], e, s);
-      const int* slot = p.hess_slot.data() + static_cast<std::size_t>(e) * nnz;
-      for (int k = 0; k < nnz; ++k) values[slot[k]] += p.buffer[k];
-    }
+    int failed = -1;
+    const EvalStatus s = EvalBatched(
+        p.hessian, groups_[g], w, p.nc, sigma, lambda + p.constraint_offset, &p.ws_h, &p.ws_h, &p.z,
+        p.buffer.data(), &p.batch_full, &p.batch_tail, &failed, [&](int e, const double* v) {
+          const int* slot = p.hess_slot.data() + static_cast<std::size_t>(e) * nnz;
+          for (int k = 0; k < nnz; ++k) values[slot[k]] += v[k];
+        });
+    if (!s.ok) return Fail(groups_[g], failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {
     if (sigma == 0.0) break;

@@ -134,6 +134,9 @@ class Nlp {
   void ClearCaches();
 
   // ---- evaluation (allocation-free after the first call; not thread-safe per Nlp) -------------
+  // A group's instances are evaluated in batches of 128 on the batch tape
+  // (expr::Function::EvaluateBatch: several instances per instruction), which equals evaluating
+  // them one by one up to rounding; a failure names the group and the first failing instance.
   NlpEvalStatus Objective(const double* w, double* f) const;
   NlpEvalStatus Gradient(const double* w, double* grad) const;
   NlpEvalStatus Constraints(const double* w, double* g) const;

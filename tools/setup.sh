@@ -10,6 +10,8 @@ GRAYBOX_PACKAGES=(
   libmatio-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   # Tests only: headless rendering of report.html (tests/diagnosis/report_html_test.cc).
   chromium
+  # Tests only: the libFuzzer harnesses (tools/fuzz.sh).
+  clang libclang-rt-14-dev
 )
 
 graybox_install_packages() {

@@ -128,5 +128,21 @@ TEST(HostileFiles, AMatHeaderThatClaimsMoreThanTheFileHoldsIsCorrupt) {
       << e;
 }
 
+// Found by tests/fuzz/mat_fuzzer: an 887-byte v5 file whose struct's field header declares
+// 6.4 GB; matio allocated it on reading the struct (the size check looked at numeric variables
+// only). The declared size now counts a struct's fields and a cell's cells.
+TEST(HostileFiles, AStructWhoseFieldClaimsMoreThanTheFileHoldsIsCorrupt) {
+  const std::string path =
+      GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/mat_struct_field_declares_6gb.mat";
+  const MatFile mat(path);
+  std::string errors;
+  for (const std::string& name : mat.VariableNames()) {
+    errors += ErrorOf([&] { mat.ReadMatrix(name); }) + "\n";
+  }
+  EXPECT_NE(errors.find("truncated or corrupt MAT file: variable 's' declares struct"),
+            std::string::npos)
+      << errors;
+}
+
 }  // namespace
 }  // namespace graybox::estimators

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -110,6 +111,36 @@ std::size_t NumElements(const matvar_t* v) {
   std::size_t n = 1;
   for (int r = 0; r < v->rank; ++r) n *= v->dims[r];
   return v->rank > 0 ? n : 0;
+}
+
+// The bytes reading `v` would allocate according to its header, as an upper bound (8 bytes per
+// element of every numeric class, twice for complex; a struct or cell counts its element pointers
+// and, recursively, its fields or cells as far as their headers were read): what a corrupt header
+// can make matio allocate. In doubles, so that no product of declared sizes overflows.
+double DeclaredBytes(const matvar_t* v, int depth = 0) {
+  constexpr int kMaxDepth = 32;
+  constexpr double kPointer = 8.0, kElement = 8.0;
+  if (v == nullptr || depth > kMaxDepth) return 0.0;
+  double elements = v->rank > 0 ? 1.0 : 0.0;
+  for (int r = 0; r < v->rank; ++r) elements *= static_cast<double>(v->dims[r]);
+  if (v->class_type == MAT_C_STRUCT || v->class_type == MAT_C_CELL) {
+    const double per = v->class_type == MAT_C_STRUCT
+                           ? static_cast<double>(Mat_VarGetNumberOfFields(const_cast<matvar_t*>(v)))
+                           : 1.0;
+    const double children = elements * per;
+    double bytes = children * kPointer;
+    // The children's headers (read with the parent's) are walked only when their count is sane;
+    // a count beyond the limit is refused on its pointers alone.
+    constexpr double kMaxChildren = 1e6;
+    if (v->data != nullptr && children <= kMaxChildren) {
+      const auto* const* items = static_cast<const matvar_t* const*>(v->data);
+      for (std::size_t i = 0; i < static_cast<std::size_t>(children); ++i) {
+        bytes += DeclaredBytes(items[i], depth + 1);
+      }
+    }
+    return bytes;
+  }
+  return elements * kElement * (v->isComplex != 0 ? 2.0 : 1.0);
 }
 
 std::vector<std::string> SplitPath(const std::string& path) {
@@ -221,6 +252,8 @@ struct MatFile::Impl {
   mat_t* mat = nullptr;
   std::vector<MatVariableInfo> variables;
   std::string truncation;  // V5Truncation of the file
+  // DeclaredBytes of each top-level variable, from its header.
+  std::map<std::string, double> declared_bytes;
   ~Impl() {
     cache.reset();  // free matio variables before their file (v7.3 variables hold HDF5 handles)
     if (mat != nullptr) Mat_Close(mat);
@@ -235,15 +268,14 @@ struct MatFile::Impl {
   // file claiming 2e8 x 1 doubles took 4.7 GB).
   void CheckDeclaredSize(const std::string& path, const std::string& name) const {
     constexpr double kMaxCompression = 1100.0;
-    constexpr double kElementBytes = 8.0;  // an upper bound for every numeric class
     std::error_code ec;
     const double file_bytes = static_cast<double>(std::filesystem::file_size(path, ec));
     if (ec) return;
     for (const MatVariableInfo& info : variables) {
-      if (info.name != name || info.class_name == "struct" || info.class_name == "cell") continue;
-      double elements = 1.0;
-      for (const std::size_t d : info.dims) elements *= static_cast<double>(d);
-      const double declared = elements * kElementBytes * (info.is_complex ? 2.0 : 1.0);
+      if (info.name != name) continue;
+      const auto it = declared_bytes.find(name);
+      if (it == declared_bytes.end()) continue;
+      const double declared = it->second;
       if (declared > kMaxCompression * file_bytes + 4096.0) {
         char buf[200];
         std::snprintf(buf, sizeof buf, "%.3g bytes in a file of %.3g bytes", declared, file_bytes);
@@ -343,6 +375,7 @@ MatFile::MatFile(const std::string& path) : path_(path), impl_(std::make_unique<
     // MATLAB stores an unnamed opaque "__function_workspace__" blob in some files; skip it.
     if (v->name == nullptr || v->name[0] == '\0') continue;
     impl_->variables.push_back(MakeInfo(v.get(), v->name));
+    impl_->declared_bytes[v->name] = DeclaredBytes(v.get());
   }
   Mat_Rewind(impl_->mat);
 }

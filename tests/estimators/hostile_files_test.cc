@@ -128,20 +128,32 @@ TEST(HostileFiles, AMatHeaderThatClaimsMoreThanTheFileHoldsIsCorrupt) {
       << e;
 }
 
-// Found by tests/fuzz/mat_fuzzer: an 887-byte v5 file whose struct's field header declares
-// 6.4 GB; matio allocated it on reading the struct (the size check looked at numeric variables
-// only). The declared size now counts a struct's fields and a cell's cells.
-TEST(HostileFiles, AStructWhoseFieldClaimsMoreThanTheFileHoldsIsCorrupt) {
-  const std::string path =
-      GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/mat_struct_field_declares_6gb.mat";
-  const MatFile mat(path);
-  std::string errors;
-  for (const std::string& name : mat.VariableNames()) {
-    errors += ErrorOf([&] { mat.ReadMatrix(name); }) + "\n";
-  }
-  EXPECT_NE(errors.find("truncated or corrupt MAT file: variable 's' declares struct"),
+// Found by tests/fuzz/mat_fuzzer (the inputs are in tests/fuzz/regressions/): matio allocated
+// what a corrupt header declared. An 887-byte v5 file whose struct field declares a name of 2048
+// bytes made it allocate 6.4 GB on reading the struct; a 1,912-byte file whose dimensions
+// sub-element declares 3.3 GB made it allocate 6.6 GB while listing the variables. The headers are
+// now walked before matio opens the file (mat_header_check.h).
+TEST(HostileFiles, MatHeadersThatClaimMoreThanTheirElementsHoldAreCorrupt) {
+  const std::string dir = GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/";
+  std::string e = ErrorOf([&] { MatFile(dir + "mat_struct_field_declares_6gb.mat"); });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 584 (miMATRIX, 304 bytes): "
+                   "struct field 1: its name sub-element declares 2048 bytes, 76 remain"),
             std::string::npos)
-      << errors;
+      << e;
+  e = ErrorOf([&] { MatFile(dir + "mat_dimensions_declare_3gb.mat"); });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 248 (miMATRIX, 176 bytes): its "
+                   "dimensions sub-element declares 3309313544 bytes, 152 remain"),
+            std::string::npos)
+      << e;
+}
+
+// Found by tests/fuzz/mat_fuzzer: a struct whose field names matio left null; its
+// Mat_VarGetStructFieldByName dereferenced them (a segmentation fault). The field is now looked up
+// by graybox, and the missing field is a located error.
+TEST(HostileFiles, AStructWithoutFieldNamesHasNoField) {
+  const MatFile mat(GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/mat_struct_field_name_null.mat");
+  const std::string e = ErrorOf([&] { mat.ReadMatrix("s.x"); });
+  EXPECT_NE(e.find("struct 's' has no field 'x'"), std::string::npos) << e;
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "graybox/estimators/data/mat_file.h"
 #include "graybox/util/did_you_mean.h"
+#include "mat_header_check.h"
 
 #include <matio.h>
 
@@ -333,7 +334,22 @@ struct MatFile::Impl {
         Fail(path, "'" + walked + "' is a " + MakeInfo(current, walked).Describe() +
                        " struct array: expected a 1x1 struct to read field '" + parts[i] + "'");
       }
-      matvar_t* field = Mat_VarGetStructFieldByName(current, parts[i].c_str(), 0);
+      // The field looked up by hand: matio's Mat_VarGetStructFieldByName dereferences a field
+      // name or the field array that a corrupt file left null (found by tests/fuzz/mat_fuzzer).
+      matvar_t* field = nullptr;
+      {
+        const unsigned n = Mat_VarGetNumberOfFields(current);
+        char* const* names = Mat_VarGetStructFieldnames(current);
+        for (unsigned k = 0; k < n && names != nullptr && current->data != nullptr; ++k) {
+          if (names[k] != nullptr && parts[i] == names[k]) {
+            // matio's struct data: one matvar_t* per field (a 1x1 struct), nbytes in total.
+            if (current->nbytes >= (k + 1) * sizeof(matvar_t*)) {
+              field = static_cast<matvar_t**>(current->data)[k];
+            }
+            break;
+          }
+        }
+      }
       if (field == nullptr) {
         const std::vector<std::string> fields = MakeInfo(current, walked).fields;
         std::string message = "struct '" + walked + "' has no field '" + parts[i] + "'";
@@ -360,6 +376,9 @@ MatFile::MatFile(const std::string& path) : path_(path), impl_(std::make_unique<
   if (!std::ifstream(path, std::ios::binary).good()) {
     impl_->Fail(path, "file exists but cannot be read (permissions?)");
   }
+  // Sizes matio would allocate from its headers, checked first (mat_header_check.h).
+  const std::string defect = internal::MatHeaderDefect(path);
+  if (!defect.empty()) impl_->Fail(path, "truncated or corrupt MAT file: " + defect);
   InstallMatioLogger();
   impl_->mat = Mat_Open(path.c_str(), MAT_ACC_RDONLY);
   if (impl_->mat == nullptr) {

@@ -6,7 +6,8 @@
 # exception other than a located rejection (tests/fuzz/fuzz_common.h); the input is saved in
 # build-fuzz/findings/. docs/fuzzing.md: what each harness covers and how to replay a finding.
 # Usage: tools/fuzz.sh [SECONDS] [HARNESS...]   (harnesses: problem_file csv mat parameter_file
-#        equation; default all)
+#        equation; default all). libFuzzer's seed is GRAYBOX_FUZZ_SEED (default 1), so that a run
+#        from the same corpus repeats; set another to explore further.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 graybox_install_packages
@@ -45,7 +46,8 @@ run_one() {
   if ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0 \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
     "$build/tests/fuzz/${h}_fuzzer" "$corpus" "$(seeds_of "$h")" -max_total_time="$seconds" \
-    -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=20 -max_len=65536 -print_final_stats=1 \
+    -seed="${GRAYBOX_FUZZ_SEED:-1}" -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=20 \
+    -max_len=65536 -print_final_stats=1 \
     -artifact_prefix="$build/findings/${h}-" >"$build/${h}.log" 2>&1; then
     echo "fuzz: $h: no finding in ${seconds} s ($(grep -m1 -o 'stat::number_of_executed_units: *[0-9]*' "$build/${h}.log" | grep -o '[0-9]*$') runs)"
   else

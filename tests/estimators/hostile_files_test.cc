@@ -145,15 +145,75 @@ TEST(HostileFiles, MatHeadersThatClaimMoreThanTheirElementsHoldAreCorrupt) {
                    "dimensions sub-element declares 3309313544 bytes, 152 remain"),
             std::string::npos)
       << e;
+  // An opaque-class variable (cut) whose next sub-element declares 4.2 GB: matio reads it as the
+  // dimensions (8.3 GB allocated).
+  e = ErrorOf([&] { MatFile(dir + "mat_opaque_dimensions_4gb.mat"); });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 432 (miMATRIX, 100663376 "
+                   "bytes): its dimensions (opaque class) sub-element declares 4160749576 bytes, "
+                   "76 remain"),
+            std::string::npos)
+      << e;
+  // An 89-byte v4 file whose sparse record declares 1.28e9 rows and no columns (matio sized it by
+  // its rows: 5.1 GB).
+  e = ErrorOf([&] { MatFile(dir + "mat_v4_sparse_rows_1e9.mat"); });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: v4 record 1 at byte 0: declares 1280590157 x 0 "
+                   "with a name of 64 bytes, 69 bytes remain"),
+            std::string::npos)
+      << e;
+  // An empty top-level miMATRIX followed by stray elements, one a dimensions tag of 4.3 GB:
+  // matio read the empty element's headers from the bytes after it (8.6 GB allocated).
+  e = ErrorOf([&] { MatFile(dir + "mat_empty_variable_then_dimensions_4gb.mat"); });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 248 (miMATRIX, 0 bytes): too "
+                   "short for a variable's flags, dimensions and name"),
+            std::string::npos)
+      << e;
 }
 
-// Found by tests/fuzz/mat_fuzzer: a struct whose field names matio left null; its
-// Mat_VarGetStructFieldByName dereferenced them (a segmentation fault). The field is now looked up
-// by graybox, and the missing field is a located error.
-TEST(HostileFiles, AStructWithoutFieldNamesHasNoField) {
-  const MatFile mat(GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/mat_struct_field_name_null.mat");
-  const std::string e = ErrorOf([&] { mat.ReadMatrix("s.x"); });
-  EXPECT_NE(e.find("struct 's' has no field 'x'"), std::string::npos) << e;
+// Found by tests/fuzz/mat_fuzzer: a compressed variable whose zlib stream fails its check value;
+// matio read the headers it inflated before the failure and allocated 1.4 TB (an allocation
+// AddressSanitizer refuses).
+TEST(HostileFiles, ACompressedVariableZlibRejectsIsCorrupt) {
+  const std::string e = ErrorOf([&] {
+    MatFile(GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/mat_compressed_bad_check_value.mat");
+  });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 217 (miCOMPRESSED, 99 bytes): "
+                   "its zlib stream is corrupt (incorrect data check)"),
+            std::string::npos)
+      << e;
+}
+
+// Found by tests/fuzz/mat_fuzzer: a struct whose field names matio left null (inflated from a
+// corrupt zlib stream); its Mat_VarGetStructFieldByName dereferenced them (a segmentation fault).
+// The stream is now refused when the file is opened, and graybox looks struct fields up itself.
+TEST(HostileFiles, AStructWithoutFieldNamesIsRefused) {
+  const std::string e = ErrorOf([&] {
+    MatFile(GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions/mat_struct_field_name_null.mat")
+        .ReadMatrix("s.x");
+  });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 432 (miCOMPRESSED, 126 bytes): "
+                   "its zlib stream is corrupt"),
+            std::string::npos)
+      << e;
+}
+
+// Every input tests/fuzz/mat_fuzzer found (tests/fuzz/regressions/*.mat, docs/fuzzing.md) is
+// refused when the file is opened or read, with a located error, before matio allocates what its
+// headers claim (the test process would be killed or crash otherwise).
+TEST(HostileFiles, EveryMatFuzzerFindingIsRefused) {
+  int files = 0;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(GRAYBOX_SOURCE_DIR "/tests/fuzz/regressions")) {
+    if (entry.path().extension() != ".mat") continue;
+    ++files;
+    const std::string e = ErrorOf([&] {
+      const MatFile mat(entry.path().string());
+      for (const std::string& name : mat.VariableNames()) mat.ReadMatrix(name);
+      mat.ReadMatrix("s.x");
+    });
+    EXPECT_NE(e.find("truncated or corrupt MAT file"), std::string::npos)
+        << entry.path() << ": " << e;
+  }
+  EXPECT_GE(files, 7);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // Writes the seed corpus of mat_fuzzer into the folder given as the only argument: small MAT
-// files in every version graybox writes (v5, v5 compressed, v7.3) with a double matrix, an
-// integer matrix, single values, a struct of channels and a char array, as the loaders meet them.
+// files in the versions the harness reads (v5 and v5 compressed, i.e. v7; not the HDF5-based
+// v7.3) with a double matrix, an integer matrix, single values, a struct of channels and a char
+// array, as the loaders meet them.
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -23,8 +24,7 @@ int main(int argc, char** argv) {
       bool compress;
     };
     for (const Version& v : {Version{"v5", est::MatVersion::kV5, false},
-                             Version{"v5_compressed", est::MatVersion::kV5, true},
-                             Version{"v73", est::MatVersion::kV73, false}}) {
+                             Version{"v5_compressed", est::MatVersion::kV5, true}}) {
       est::MatWriter w(dir + "/seed_" + v.name + ".mat", v.version, v.compress);
       Eigen::MatrixXd t(8, 1), q(8, 2);
       for (int k = 0; k < 8; ++k) {

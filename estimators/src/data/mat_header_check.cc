@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -22,6 +23,8 @@ constexpr std::uint32_t kCellClass = 1, kStructClass = 2, kObjectClass = 3, kSpa
                         kFunctionClass = 16, kOpaqueClass = 17;
 // zlib's best compression is about 1032:1; an inflated element beyond this ratio is corrupt.
 constexpr double kMaxCompression = 1100.0;
+// The smallest top-level variable: array flags (16 bytes), two dimensions (16), a small name (8).
+constexpr std::size_t kMinVariableBytes = 40;
 // Nesting of cells and structs matio recurses through.
 constexpr int kMaxDepth = 32;
 
@@ -77,7 +80,16 @@ class V5Walker {
       const std::size_t next =
           t.small ? pos + 8 : pos + 8 + (t.type == kMiCompressed ? t.bytes : Padded(t.bytes));
       std::string defect;
-      if (t.type == kMiMatrix && !t.small) {
+      // A variable is a miMATRIX (or, not inside an inflated one, a miCOMPRESSED miMATRIX) with
+      // room for its flags (16 bytes), dimensions (16) and name (8): matio reads the headers of
+      // anything else as if they were one, past the element's end.
+      if (t.small || !(t.type == kMiMatrix || (t.type == kMiCompressed && !inflated_))) {
+        defect = "not a variable (a miMATRIX" + std::string(inflated_ ? "" : " or miCOMPRESSED") +
+                 " element), type " + std::to_string(t.type);
+      } else if (t.type == kMiMatrix && t.bytes < kMinVariableBytes) {
+        defect = "too short for a variable's flags, dimensions and name (at least " +
+                 std::to_string(kMinVariableBytes) + " bytes)";
+      } else if (t.type == kMiMatrix) {
         defect = Matrix(pos + 8, element_end, 0);
       } else if (t.type == kMiCompressed && !t.small && !inflated_) {
         defect = Compressed(pos + 8, element_end, pos);
@@ -168,10 +180,15 @@ class V5Walker {
     const std::uint32_t array_class = U32(pos + 8) & 0xff;
     const bool complex = (U32(pos + 8) & 0x800) != 0;
     const std::uint32_t nzmax = U32(pos + 12);
-    // Function handles and opaque objects (MATLAB's classdef "MCOS" objects) have no dimensions
-    // after their flags; matio reads them as opaque blobs within their element.
-    if (array_class == kFunctionClass || array_class == kOpaqueClass) return "";
     pos = next;
+    // Function handles and opaque objects (MATLAB's classdef "MCOS" objects) have no dimensions
+    // after their flags, but their name; matio reads the two sub-elements after the flags as
+    // dimensions and name all the same, so both must fit in the element too. The rest is opaque.
+    if (array_class == kFunctionClass || array_class == kOpaqueClass) {
+      d = Sub(pos, end, "dimensions (opaque class)", true, &t, &next, &cut);
+      if (!d.empty() || cut) return d;
+      return Sub(next, end, "name (opaque class)", true, &t, &next, &cut);
+    }
     d = Sub(pos, end, "dimensions", true, &t, &next, &cut);
     if (!d.empty() || cut) return d;
     if (t.type != kMiInt32 || t.bytes % 4 != 0 || t.bytes < 8) {
@@ -291,8 +308,14 @@ class V5Walker {
       }
       if (status == Z_BUF_ERROR && z.avail_in == 0) break;  // cut: matio stops there too
     }
+    const std::string zlib_message = z.msg != nullptr ? z.msg : "";
     inflateEnd(&z);
-    if (status != Z_STREAM_END && status != Z_OK && status != Z_BUF_ERROR) return "";
+    // A stream zlib rejects (a wrong check value, an invalid code) is corrupt, whatever it
+    // inflated first: matio reads the variable's headers from those bytes all the same.
+    if (status != Z_STREAM_END && status != Z_OK && status != Z_BUF_ERROR) {
+      return "its zlib stream is corrupt (" +
+             (zlib_message.empty() ? "status " + std::to_string(status) : zlib_message) + ")";
+    }
     V5Walker inner(out, swap_, element, true);
     return inner.Elements(0, out.size());
   }
@@ -327,13 +350,17 @@ std::string V4Defect(const std::vector<unsigned char>& b) {
     if (type < 0 || type > 4999) return "";  // not a v4 record: Mat_Open decides
     const std::int32_t rows = i32(pos + 4, big), cols = i32(pos + 8, big);
     const std::int32_t imaginary = i32(pos + 12, big), name = i32(pos + 16, big);
-    const int precision = (type / 10) % 10;
+    const int precision = (type / 10) % 10, matrix_type = type % 10;
     static const double kSize[] = {8, 4, 4, 2, 2, 1};
     const double size = precision <= 5 ? kSize[precision] : 8.0;
-    const double data = static_cast<double>(rows) * cols * size * (imaginary != 0 ? 2.0 : 1.0);
+    // A sparse record (type 2) holds (nonzeros + 1) rows of at least 3 columns (i, j, value);
+    // matio sizes it by its rows whatever the columns say.
+    const double columns = matrix_type == 2 ? std::max(cols, 3) : cols;
+    const double data = static_cast<double>(rows) * columns * size * (imaginary != 0 ? 2.0 : 1.0);
     const double left = static_cast<double>(b.size() - pos - 20);
     char buf[240];
-    if (rows < 0 || cols < 0 || name < 0 || static_cast<double>(name) > left) {
+    if (rows < 0 || cols < 0 || name < 0 || static_cast<double>(name) > left ||
+        static_cast<double>(rows) > left || static_cast<double>(cols) > left) {
       std::snprintf(buf, sizeof buf,
                     "v4 record %d at byte %zu: declares %d x %d with a name of %d bytes, %.0f "
                     "bytes remain",

@@ -4,6 +4,7 @@
 
 #include <matio.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -522,7 +523,18 @@ std::string MatFile::ReadString(const std::string& variable_path) const {
   }
   const std::size_t rows = v->dims[0];
   const std::size_t cols = v->dims[1];
-  if (rows * cols == 0 || v->data == nullptr) return "";
+  if (rows == 0 || cols == 0 || v->data == nullptr) return "";
+  // The data matio read must hold every character the dimensions declare (a corrupt file's data
+  // element can be shorter: found by tests/fuzz/mat_fuzzer).
+  const double needed = static_cast<double>(rows) * static_cast<double>(cols) *
+                        static_cast<double>(std::max(v->data_size, 1));
+  if ((v->data_size != 1 && v->data_size != 2 && v->data_size != 4) ||
+      needed > static_cast<double>(v->nbytes)) {
+    impl_->Fail(path_, "truncated or corrupt MAT file: variable '" + variable_path + "' (" +
+                           MakeInfo(v, variable_path).Describe() + ") holds " +
+                           std::to_string(v->nbytes) + " bytes of characters of " +
+                           std::to_string(v->data_size) + " bytes each");
+  }
   auto at = [&](std::size_t i) -> char {
     std::uint32_t code = 0;
     if (v->data_size == 1) code = static_cast<const std::uint8_t*>(v->data)[i];

@@ -184,9 +184,24 @@ class V5Walker {
     // Function handles and opaque objects (MATLAB's classdef "MCOS" objects) have no dimensions
     // after their flags, but their name; matio reads the two sub-elements after the flags as
     // dimensions and name all the same, so both must fit in the element too. The rest is opaque.
+    // Where that sub-element holds dimensions, matio allocates one pointer per element from them.
     if (array_class == kFunctionClass || array_class == kOpaqueClass) {
       d = Sub(pos, end, "dimensions (opaque class)", true, &t, &next, &cut);
       if (!d.empty() || cut) return d;
+      if (t.type == kMiInt32 && !t.small && t.bytes >= 8 && t.bytes % 4 == 0) {
+        double count = 1.0;
+        for (std::size_t k = 0; k < t.bytes / 4 && pos + 8 + 4 * k + 4 <= b_.size(); ++k) {
+          count *= static_cast<std::int32_t>(U32(pos + 8 + 4 * k));
+        }
+        const std::size_t available = std::min(end, b_.size()) - std::min(next, b_.size());
+        if (count < 0.0 || count * 8.0 > static_cast<double>(available)) {
+          char buf[160];
+          std::snprintf(buf, sizeof buf,
+                        "its dimensions declare %.0f elements of an opaque class, %zu bytes remain",
+                        count, available);
+          return buf;
+        }
+      }
       return Sub(next, end, "name (opaque class)", true, &t, &next, &cut);
     }
     d = Sub(pos, end, "dimensions", true, &t, &next, &cut);
@@ -230,13 +245,26 @@ class V5Walker {
     }
     const std::size_t parts = complex ? 2 : 1;
     if (array_class == kSparseClass) {
-      // Row indices (nzmax), column starts (columns + 1), values (and imaginary values).
-      if (static_cast<double>(nzmax) * 4.0 > static_cast<double>(end - std::min(end, pos))) {
-        return "its nzmax " + std::to_string(nzmax) + " does not fit in the element";
+      // Row indices (nzmax), column starts (columns + 1), values (and imaginary values); matio
+      // sizes its arrays from these tags, so each must lie in the bytes that exist, the indices
+      // be 4-byte integers and the values of a numeric type.
+      const std::size_t available = std::min(end, b_.size()) - std::min(pos, b_.size());
+      if (static_cast<double>(nzmax) * 4.0 > static_cast<double>(available)) {
+        return "its nzmax " + std::to_string(nzmax) + " does not fit in the " +
+               std::to_string(available) + " bytes that remain";
       }
+      static const char* const kSparseParts[] = {"row indices", "column starts", "values",
+                                                 "imaginary values"};
       for (std::size_t k = 0; k < 2 + parts; ++k) {
-        d = Sub(pos, end, "sparse part", false, &t, &next, &cut);
+        d = Sub(pos, end, kSparseParts[k], true, &t, &next, &cut);
         if (!d.empty() || cut) return d;
+        const bool index = k < 2;
+        if (index ? TypeSize(t.type) != 4 || t.type == kMiSingle || t.type == kMiUtf32
+                  : TypeSize(t.type) == 0 || t.type == kMiUtf8 || t.type == kMiUtf16 ||
+                        t.type == kMiUtf32) {
+          return std::string("its ") + kSparseParts[k] + " have data type " +
+                 std::to_string(t.type);
+        }
         pos = next;
       }
       return "";
@@ -359,6 +387,15 @@ std::string V4Defect(const std::vector<unsigned char>& b) {
     const double data = static_cast<double>(rows) * columns * size * (imaginary != 0 ? 2.0 : 1.0);
     const double left = static_cast<double>(b.size() - pos - 20);
     char buf[240];
+    // A sparse record holds nonzeros + 1 >= 1 rows of 3 (real) or 4 (complex) columns; matio
+    // sizes it from rows - 1.
+    if (matrix_type == 2 && (rows < 1 || cols < 3 || cols > 4)) {
+      std::snprintf(buf, sizeof buf,
+                    "v4 record %d at byte %zu: a sparse record of %d x %d (expected at least 1 "
+                    "row and 3 or 4 columns)",
+                    record, pos, rows, cols);
+      return buf;
+    }
     if (rows < 0 || cols < 0 || name < 0 || static_cast<double>(name) > left ||
         static_cast<double>(rows) > left || static_cast<double>(cols) > left) {
       std::snprintf(buf, sizeof buf,

@@ -369,13 +369,12 @@ std::string V4Defect(const std::vector<unsigned char>& b) {
                                      std::uint32_t(p[1]) << 8 | std::uint32_t(p[0]));
       return static_cast<std::int32_t>(v);
     };
-    bool big = false;
+    // As matio reads it: the type is byte-swapped when it is out of range, and then its
+    // thousands digit M (0: little-endian, 1: big-endian) sets the order of the other fields.
     std::int32_t type = i32(pos, false);
-    if (type < 0 || type > 4999) {
-      big = true;
-      type = i32(pos, true);
-    }
-    if (type < 0 || type > 4999) return "";  // not a v4 record: Mat_Open decides
+    if (type < 0 || type > 4052) type = i32(pos, true);
+    if (type < 0 || type >= 2000) return "";  // not a v4 record matio reads: Mat_Open decides
+    const bool big = type >= 1000;
     const std::int32_t rows = i32(pos + 4, big), cols = i32(pos + 8, big);
     const std::int32_t imaginary = i32(pos + 12, big), name = i32(pos + 16, big);
     const int precision = (type / 10) % 10, matrix_type = type % 10;

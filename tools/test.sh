@@ -57,5 +57,5 @@ for f in "$log_dir"/release.log "$log_dir"/asan.log; do
   passed=$((passed + total - bad))
   failed=$((failed + bad))
 done
-echo "== all checks passed (format, Release tests, sanitizer tests, install consumer)"
+echo "== all checks passed (format, Release tests, sanitizer tests, fuzzers, install consumer)"
 echo "tests: $passed passed, $failed failed"

@@ -196,6 +196,13 @@ TEST(HostileFiles, AStructWithoutFieldNamesIsRefused) {
       << e;
 }
 
+// The header check maps regular files only: a device given as a MAT file is not read to its end
+// (/dev/zero never ends) but refused by matio's own header test.
+TEST(HostileFiles, ADeviceIsNotReadAsAMatFile) {
+  const std::string e = ErrorOf([] { MatFile("/dev/zero"); });
+  EXPECT_NE(e.find("expected a MATLAB .mat file (v4, v5, v7 or v7.3)"), std::string::npos) << e;
+}
+
 // Every input tests/fuzz/mat_fuzzer found (tests/fuzz/regressions/*.mat, docs/fuzzing.md) is
 // refused when the file is opened or read, with a located error, before matio allocates what its
 // headers claim (the test process would be killed or crash otherwise).

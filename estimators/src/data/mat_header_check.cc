@@ -1,13 +1,15 @@
 #include "mat_header_check.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -63,12 +65,20 @@ const char* TypeName(std::uint32_t type) {
   }
 }
 
+// Read-only bytes: a mapped file or an inflated element.
+struct Bytes {
+  const unsigned char* p = nullptr;
+  std::size_t n = 0;
+  const unsigned char* data() const { return p; }
+  std::size_t size() const { return n; }
+  unsigned char operator[](std::size_t i) const { return p[i]; }
+};
+
 // A v5 byte stream (the file, or one inflated miCOMPRESSED element) and the file offset of its
 // first byte (for messages; inflated bytes are reported at their element's offset).
 class V5Walker {
  public:
-  V5Walker(const std::vector<unsigned char>& bytes, bool swap, std::size_t file_offset,
-           bool inflated)
+  V5Walker(Bytes bytes, bool swap, std::size_t file_offset, bool inflated)
       : b_(bytes), swap_(swap), file_offset_(file_offset), inflated_(inflated) {}
 
   // Checks the elements in [pos, end); "" or the first defect.
@@ -344,11 +354,11 @@ class V5Walker {
       return "its zlib stream is corrupt (" +
              (zlib_message.empty() ? "status " + std::to_string(status) : zlib_message) + ")";
     }
-    V5Walker inner(out, swap_, element, true);
+    V5Walker inner(Bytes{out.data(), out.size()}, swap_, element, true);
     return inner.Elements(0, out.size());
   }
 
-  const std::vector<unsigned char>& b_;
+  Bytes b_;
   bool swap_;
   std::size_t file_offset_;
   bool inflated_;
@@ -356,7 +366,7 @@ class V5Walker {
 
 // MAT v4: records of a 20-byte header (type MOPT, rows, columns, imaginary flag, name length),
 // the name, and the data.
-std::string V4Defect(const std::vector<unsigned char>& b) {
+std::string V4Defect(Bytes b) {
   std::size_t pos = 0;
   int record = 0;
   while (pos + 20 <= b.size()) {
@@ -415,13 +425,41 @@ std::string V4Defect(const std::vector<unsigned char>& b) {
   return "";
 }
 
+// A regular file mapped read-only (only the pages the walk touches are read); empty when the
+// path is not a regular file or cannot be mapped (Mat_Open then reports it).
+class MappedFile {
+ public:
+  explicit MappedFile(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return;
+    struct stat st {};
+    if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+      void* p =
+          ::mmap(nullptr, static_cast<std::size_t>(st.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+      if (p != MAP_FAILED) {
+        bytes_.p = static_cast<const unsigned char*>(p);
+        bytes_.n = static_cast<std::size_t>(st.st_size);
+      }
+    }
+    ::close(fd);
+  }
+  ~MappedFile() {
+    if (bytes_.p != nullptr) ::munmap(const_cast<unsigned char*>(bytes_.p), bytes_.n);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  Bytes bytes() const { return bytes_; }
+
+ private:
+  Bytes bytes_;
+};
+
 }  // namespace
 
 std::string MatHeaderDefect(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "";
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                         std::istreambuf_iterator<char>());
+  const MappedFile file(path);
+  const Bytes bytes = file.bytes();
+  if (bytes.size() == 0) return "";
   // matio's own test: a 128-byte header ending in the version (0x0100: v5/v7, 0x0200: v7.3) and
   // the endian indicator "IM" (or "MI", byte-swapped).
   if (bytes.size() >= 128) {

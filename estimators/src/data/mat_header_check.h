@@ -7,7 +7,9 @@
 // data element, miCOMPRESSED ones inflated with zlib up to the best compression ratio, and inside
 // each miMATRIX the array flags, dimensions, name, and the parts, cells, struct fields or sparse
 // indices its class has, recursively; MAT v4: every record's header) and checks that every size
-// fits inside the element that holds it. The HDF5-based v7.3 is left to HDF5's own checks.
+// fits inside the element that holds it. The HDF5-based v7.3 is left to HDF5's own checks. The
+// file is mapped read-only, so an uncompressed file's data pages are not read; each compressed
+// variable is inflated once, one at a time.
 #pragma once
 
 #include <string>

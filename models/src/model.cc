@@ -37,11 +37,12 @@ std::pair<std::string, double> Connection(const std::string& c) {
 template <typename T, typename Key>
 int IndexByName(const std::vector<T>& items, const std::string& name, Key key, const char* kind,
                 const std::string& model) {
-  std::vector<std::string> names;
   for (std::size_t i = 0; i < items.size(); ++i) {
     if (key(items[i]) == name) return static_cast<int>(i);
-    names.push_back(key(items[i]));
   }
+  std::vector<std::string> names;
+  names.reserve(items.size());
+  for (const T& item : items) names.push_back(key(item));
   throw std::invalid_argument("model '" + model + "': unknown " + kind + " '" + name + "'" +
                               Suggest(name, names));
 }
@@ -64,23 +65,25 @@ Eigen::VectorXd StateSpaceModel::ParameterValues() const {
 
 int StateSpaceModel::ParameterIndex(const std::string& n) const {
   return IndexByName(
-      parameters, n, [](const ModelParameter& p) { return p.name; }, "parameter", name);
+      parameters, n, [](const ModelParameter& p) -> const std::string& { return p.name; },
+      "parameter", name);
 }
 int StateSpaceModel::StateIndex(const std::string& n) const {
   return IndexByName(
-      states, n, [](const SignalInfo& s) { return s.name; }, "state", name);
+      states, n, [](const SignalInfo& s) -> const std::string& { return s.name; }, "state", name);
 }
 int StateSpaceModel::InputIndex(const std::string& n) const {
   return IndexByName(
-      inputs, n, [](const SignalInfo& s) { return s.name; }, "input", name);
+      inputs, n, [](const SignalInfo& s) -> const std::string& { return s.name; }, "input", name);
 }
 int StateSpaceModel::OutputIndex(const std::string& n) const {
   return IndexByName(
-      outputs, n, [](const SignalInfo& s) { return s.name; }, "output", name);
+      outputs, n, [](const SignalInfo& s) -> const std::string& { return s.name; }, "output", name);
 }
 int StateSpaceModel::SignalIndex(const std::string& n) const {
   return IndexByName(
-      signals, n, [](const SignalDescription& s) { return s.info.name; }, "signal", name);
+      signals, n, [](const SignalDescription& s) -> const std::string& { return s.info.name; },
+      "signal", name);
 }
 
 expr::Function StateSpaceModel::SignalFunction(const std::vector<std::string>& names) const {
@@ -149,10 +152,14 @@ std::vector<std::string> Model::InstanceNames() const {
 }
 
 const Model::Instance* Model::FindInstance(const std::string& n) const {
-  for (const auto& inst : instances_) {
-    if (inst.name == n) return &inst;
-  }
-  return nullptr;
+  const auto it = instance_index_.find(n);
+  return it == instance_index_.end() ? nullptr : &instances_[it->second];
+}
+
+void Model::IndexParameters() {
+  parameter_index_.clear();
+  parameter_index_.reserve(parameters_.size());
+  for (std::size_t i = 0; i < parameters_.size(); ++i) parameter_index_[parameters_[i].name] = i;
 }
 
 void Model::CheckNewInstance(const std::string& instance) const {
@@ -187,13 +194,15 @@ void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> b
   }
   for (const auto& out : outputs) {
     const std::string target = Connection(out).first;
-    for (const auto& inst : instances_) {
-      for (const auto& s : inst.block->info().states) {
-        if (target == inst.name + "." + s.name) {
-          throw std::invalid_argument("model '" + name_ + "': block '" + instance +
-                                      "' writes to state signal '" + target +
-                                      "'; states are written only by their own block");
-        }
+    const auto dot = target.find('.');
+    const Instance* owner =
+        dot == std::string::npos ? nullptr : FindInstance(target.substr(0, dot));
+    if (owner == nullptr) continue;
+    for (const auto& s : owner->block->info().states) {
+      if (target.compare(dot + 1, std::string::npos, s.name) == 0) {
+        throw std::invalid_argument("model '" + name_ + "': block '" + instance +
+                                    "' writes to state signal '" + target +
+                                    "'; states are written only by their own block");
       }
     }
   }
@@ -206,8 +215,10 @@ void Model::AddBlock(const std::string& instance, std::shared_ptr<const Block> b
     mp.scale = DefaultParameterScale(par);
     mp.lower = par.lower;
     mp.upper = par.upper;
+    parameter_index_[mp.name] = parameters_.size();
     parameters_.push_back(mp);
   }
+  instance_index_[instance] = instances_.size();
   instances_.push_back({instance, std::move(block), inputs, outputs});
 }
 
@@ -233,9 +244,8 @@ void Model::Augment(const std::string& instance, const std::string& type,
 }
 
 void Model::ReplaceBlock(const std::string& instance, std::shared_ptr<const Block> block) {
-  auto it = std::find_if(instances_.begin(), instances_.end(),
-                         [&](const Instance& i) { return i.name == instance; });
-  if (it == instances_.end()) {
+  const auto found = instance_index_.find(instance);
+  if (found == instance_index_.end()) {
     throw std::invalid_argument("model '" + name_ + "': ReplaceBlock: unknown block instance '" +
                                 instance + "'" + Suggest(instance, InstanceNames()));
   }
@@ -243,6 +253,7 @@ void Model::ReplaceBlock(const std::string& instance, std::shared_ptr<const Bloc
     throw std::invalid_argument("model '" + name_ + "': ReplaceBlock('" + instance +
                                 "'): the block is null");
   }
+  const auto it = instances_.begin() + static_cast<std::ptrdiff_t>(found->second);
   const BlockInfo& old_info = it->block->info();
   const BlockInfo& info = block->info();
   const std::string where =
@@ -290,6 +301,7 @@ void Model::ReplaceBlock(const std::string& instance, std::shared_ptr<const Bloc
   }
   const auto at = parameters_.erase(first, last);
   parameters_.insert(at, replaced.begin(), replaced.end());
+  IndexParameters();
   it->block = std::move(block);
 }
 
@@ -456,8 +468,13 @@ std::vector<std::pair<std::string, std::string>> Model::Outputs() const {
 }
 
 ModelParameter& Model::Parameter(const std::string& n) {
-  return parameters_[IndexByName(
-      parameters_, n, [](const ModelParameter& p) { return p.name; }, "parameter", name_)];
+  const auto it = parameter_index_.find(n);
+  if (it != parameter_index_.end()) return parameters_[it->second];
+  std::vector<std::string> names;
+  names.reserve(parameters_.size());
+  for (const ModelParameter& p : parameters_) names.push_back(p.name);
+  throw std::invalid_argument("model '" + name_ + "': unknown parameter '" + n + "'" +
+                              Suggest(n, names));
 }
 
 void Model::SetParameter(const std::string& n, double value) {

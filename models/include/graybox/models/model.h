@@ -46,6 +46,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -298,6 +299,8 @@ class Model {
     SignalInfo info;
   };
   const Instance* FindInstance(const std::string& name) const;
+  // Rebuilds parameter_index_ after parameters_ was reordered.
+  void IndexParameters();
   // Every instance name, in the order added (for did-you-mean suggestions).
   std::vector<std::string> InstanceNames() const;
   // Throws std::invalid_argument unless `instance` is a valid name no instance has yet.
@@ -312,6 +315,9 @@ class Model {
   std::vector<std::string> outputs_;       // the signal each channel reports
   std::vector<std::string> output_names_;  // the channel's name (outputs_[j] unless aliased)
   std::vector<ModelParameter> parameters_;
+  // Name -> position in instances_ and parameters_: lookups stay O(1) in models of many blocks.
+  std::unordered_map<std::string, std::size_t> instance_index_;
+  std::unordered_map<std::string, std::size_t> parameter_index_;
 };
 
 /// Default optimizer scale of a parameter: |nominal|, or the width of finite bounds, or 1.

@@ -22,7 +22,7 @@ constexpr std::uint32_t kMiInt8 = 1, kMiUInt8 = 2, kMiInt16 = 3, kMiUInt16 = 4, 
                         kMiMatrix = 14, kMiCompressed = 15, kMiUtf8 = 16, kMiUtf16 = 17,
                         kMiUtf32 = 18;
 constexpr std::uint32_t kCellClass = 1, kStructClass = 2, kObjectClass = 3, kSparseClass = 5,
-                        kFunctionClass = 16, kOpaqueClass = 17;
+                        kCharClass = 4, kUInt64Class = 15, kFunctionClass = 16, kOpaqueClass = 17;
 // zlib's best compression is about 1032:1; an inflated element beyond this ratio is corrupt.
 constexpr double kMaxCompression = 1100.0;
 // The smallest top-level variable: array flags (16 bytes), two dimensions (16), a small name (8).
@@ -186,7 +186,12 @@ class V5Walker {
     bool cut = false;
     std::string d = Sub(pos, end, "array flags", true, &t, &next, &cut);
     if (!d.empty() || cut) return d;
-    if (t.bytes < 8 || t.type != kMiUInt32) return "its array flags are not 8 bytes of miUINT32";
+    // matio reads the flags as 16 bytes (tag and two words) whatever the tag declares, and the
+    // dimensions right after them: any other size would put the two readings apart.
+    if (t.small || t.bytes != 8 || t.type != kMiUInt32) {
+      return "its array flags are not 8 bytes of miUINT32 (the tag declares " +
+             std::to_string(t.bytes) + " bytes of type " + std::to_string(t.type) + ")";
+    }
     const std::uint32_t array_class = U32(pos + 8) & 0xff;
     const bool complex = (U32(pos + 8) & 0x800) != 0;
     const std::uint32_t nzmax = U32(pos + 12);
@@ -230,6 +235,12 @@ class V5Walker {
     pos = next;
     d = Sub(pos, end, "name", true, &t, &next, &cut);
     if (!d.empty() || cut) return d;
+    // A cell or struct field has an empty name: matio skips 8 bytes for its name tag and reads
+    // the data right after, whatever the tag declares.
+    if (depth > 0 && !t.small && t.bytes != 0) {
+      return "its name sub-element declares " + std::to_string(t.bytes) +
+             " bytes (a cell or struct field has an empty name)";
+    }
     pos = next;
     // What follows the name by class: the parts of numeric, char and logical arrays; the indices
     // and values of sparse ones; cells; struct and object fields.
@@ -242,7 +253,8 @@ class V5Walker {
       }
       d = Sub(pos, end, "field name length", true, &t, &next, &cut);
       if (!d.empty() || cut) return d;
-      if (t.bytes != 4 || pos + t.header + 4 > b_.size()) {
+      // matio reads it as one small element (type and value in 8 bytes).
+      if (!t.small || t.bytes != 4 || pos + t.header + 4 > b_.size()) {
         return "its field name length is not one miINT32";
       }
       const std::uint32_t length = U32(pos + t.header);
@@ -283,6 +295,17 @@ class V5Walker {
       d = Sub(pos, end, k == 0 ? "real part" : "imaginary part", false, &t, &next, &cut);
       if (!d.empty() || cut) return d;
       const std::size_t size = TypeSize(t.type);
+      // matio allocates a numeric or char array from its class and dimensions before it reads
+      // the data; data of no numeric type cannot fill it.
+      const bool numeric = array_class >= kCharClass && array_class <= kUInt64Class;
+      if (numeric && size == 0 && elements > 0.0) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf,
+                      "its dimensions declare %.0f elements, its %s has data type %u, not a "
+                      "numeric one",
+                      elements, k == 0 ? "real part" : "imaginary part", t.type);
+        return buf;
+      }
       if (size > 0 && elements * static_cast<double>(size) > static_cast<double>(t.bytes)) {
         char buf[160];
         std::snprintf(buf, sizeof buf, "its dimensions declare %.0f elements, its %s holds %zu",

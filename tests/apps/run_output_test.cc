@@ -3,6 +3,7 @@
 // be written is refused before solving, split names whose files would collide are refused, and
 // --params is checked (a folder without result.json, a number out of range, a value outside the
 // problem's bounds), and control characters from files are escaped in messages.
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -42,6 +43,37 @@ TEST_F(RunOutputCli, ASecondRunReplacesTheFirstWhole) {
   for (const auto& entry : fs::directory_iterator(dir_.path())) {
     EXPECT_EQ(entry.path().filename().string().find(".out."), std::string::npos) << entry.path();
   }
+}
+
+// The case of the issue: an output folder made immutable (chattr +i) while its subfolders stay
+// writable. The second run cannot move the first aside, so it leaves it whole (result.json and
+// the plots of the first run, byte for byte), exits nonzero and names where its own outputs are.
+TEST_F(RunOutputCli, AnImmutableOutputFolderKeepsTheFirstRunWhole) {
+  ASSERT_EQ(Graybox("fit pushed.toml --out out").exit_code, 0);
+  const std::string result = ReadText(dir_ / "out/result.json");
+  const std::string plot = ReadText(dir_ / "out/plots/first_outputs.svg");
+  const std::string out = dir_ / "out";
+  if (std::system(("chattr +i '" + out + "' 2>/dev/null").c_str()) != 0) {
+    GTEST_SKIP() << "chattr +i is not available here (needs root and a file system with the "
+                    "immutable attribute)";
+  }
+  // The same problem under another file name: the second run's result.json names it.
+  WriteText(dir_ / "pushed_again.toml", PushedProblem());
+  const RunResult again = Graybox("fit pushed_again.toml --out out", "again.txt");
+  std::system(("chattr -i '" + out + "'").c_str());
+  EXPECT_NE(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("cannot replace the earlier run in 'out'"), std::string::npos)
+      << again.output;
+  EXPECT_NE(again.output.find("it is left untouched"), std::string::npos) << again.output;
+  EXPECT_EQ(ReadText(dir_ / "out/result.json"), result);
+  EXPECT_EQ(ReadText(dir_ / "out/plots/first_outputs.svg"), plot);
+  // This run's outputs are whole in the folder the message names, beside out.
+  const auto named = again.output.find("this run's outputs are in '");
+  ASSERT_NE(named, std::string::npos) << again.output;
+  const auto begin = named + std::string("this run's outputs are in '").size();
+  const fs::path staged = again.output.substr(begin, again.output.find('\'', begin) - begin);
+  EXPECT_TRUE(fs::exists(staged / "result.json")) << staged;
+  EXPECT_NE(ReadText(staged / "result.json").find("pushed_again.toml"), std::string::npos);
 }
 
 TEST_F(RunOutputCli, AnOutputFolderThatCannotBeWrittenIsRefusedBeforeSolving) {

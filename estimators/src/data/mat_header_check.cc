@@ -203,10 +203,22 @@ class V5Walker {
     if (array_class == kFunctionClass || array_class == kOpaqueClass) {
       d = Sub(pos, end, "dimensions (opaque class)", true, &t, &next, &cut);
       if (!d.empty() || cut) return d;
-      if (t.type == kMiInt32 && !t.small && t.bytes >= 8 && t.bytes % 4 == 0) {
+      // In an uncompressed variable, matio reads only the tag of a sub-element there that is not
+      // miINT32 (MATLAB's is the variable's name) and the name's tag from its first data bytes:
+      // where those bytes make a miINT8 tag, the name it declares must fit too.
+      if (t.type != kMiInt32 && !t.small && !inflated_) {
+        const std::size_t at = pos + 8;
+        if (at + 8 <= b_.size() && U32(at) == kMiInt8) {
+          return Sub(at, end, "name (opaque class, read from the data after the dimensions tag)",
+                     true, &t, &next, &cut);
+        }
+        return "";
+      }
+      // matio takes bytes / 4 dimensions, rounded down, whatever the remainder.
+      if (t.type == kMiInt32) {
         double count = 1.0;
-        for (std::size_t k = 0; k < t.bytes / 4 && pos + 8 + 4 * k + 4 <= b_.size(); ++k) {
-          count *= static_cast<std::int32_t>(U32(pos + 8 + 4 * k));
+        for (std::size_t k = 0; k < t.bytes / 4 && pos + t.header + 4 * k + 4 <= b_.size(); ++k) {
+          count *= static_cast<std::int32_t>(U32(pos + t.header + 4 * k));
         }
         const std::size_t available = std::min(end, b_.size()) - std::min(next, b_.size());
         if (count < 0.0 || count * 8.0 > static_cast<double>(available)) {

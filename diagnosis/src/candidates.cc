@@ -101,8 +101,9 @@ models::Augmentation AugmentationFor(const Candidate& candidate, const models::M
   models::Augmentation a = candidate.augmentation;
   for (const auto& [option, parameter] : candidate.options_from_parameters) {
     const auto& ps = model.parameters();
-    const auto it = std::find_if(
-        ps.begin(), ps.end(), [&](const models::ModelParameter& p) { return p.name == parameter; });
+    const std::string& wanted = parameter;  // a structured binding cannot be captured (C++17)
+    const auto it = std::find_if(ps.begin(), ps.end(),
+                                 [&](const models::ModelParameter& p) { return p.name == wanted; });
     if (it == ps.end()) {
       throw std::invalid_argument("AugmentationFor: candidate '" + candidate.instance +
                                   "' takes option '" + option + "' from parameter '" + parameter +

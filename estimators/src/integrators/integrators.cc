@@ -454,8 +454,9 @@ SensitivityTrajectory Integrator::Run(const Eigen::VectorXd& x0, const Eigen::Ma
   }
   Eigen::MatrixXd dy(ny, ns);
   for (Eigen::Index k = 0; k <= last; ++k) {
-    xk = t.x.row(k).transpose();
-    uk = u.row(k).transpose();
+    // A row of a matrix without columns is not taken (Eigen offsets its null data pointer).
+    if (nx > 0) xk = t.x.row(k).transpose();
+    if (nu > 0) uk = u.row(k).transpose();
     const double* in[3] = {xk.data(), uk.data(), p.data()};
     double* out[1] = {yk.data()};
     const expr::EvalStatus st = model_.output.Evaluate(in, out, &ws);
@@ -563,7 +564,7 @@ void FixedStepIntegrator::IntegrateStates(const StateRequest& r) const {
   }
   const char* scheme = StepSchemeName(options_.scheme);
   for (Eigen::Index k = 0; k + 1 < n; ++k) {
-    uk = r.u->row(k).transpose();
+    if (nu > 0) uk = r.u->row(k).transpose();
     for (int sub = 0; sub < options_.substeps; ++sub) {
       const double* in[3] = {x.data(), uk.data(), r.p->data()};
       if (d) {

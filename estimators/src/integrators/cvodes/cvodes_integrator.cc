@@ -555,8 +555,10 @@ void CvodesIntegrator::IntegrateStates(const StateRequest& r) const {
   Eigen::Index a = 0;
   while (a + 1 < n) {
     Eigen::Index b = a + 1;
-    while (b + 1 < n && r.u->row(b) == r.u->row(a)) ++b;
-    u_held = r.u->row(a).transpose();
+    // Rows of an input matrix without columns are not taken (Eigen offsets its null data
+    // pointer): without inputs, the whole record is one segment.
+    while (b + 1 < n && (nu == 0 || r.u->row(b) == r.u->row(a))) ++b;
+    if (nu > 0) u_held = r.u->row(a).transpose();
     data.u = u_held.data();
     data.cache_valid = false;
     const double t_a = static_cast<double>(a) * dt(), t_b = static_cast<double>(b) * dt();

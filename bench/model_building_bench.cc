@@ -57,8 +57,11 @@ void BM_ParseGainChain(benchmark::State& state) {
       blocks, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_ParseGainChain)
-    ->RangeMultiplier(2)
-    ->Range(1000, 16000)
+    ->Arg(1000)
+    ->Arg(2000)
+    ->Arg(4000)
+    ->Arg(8000)
+    ->Arg(16000)
     ->Unit(benchmark::kMillisecond)
     ->Complexity(benchmark::oN);
 
@@ -98,8 +101,11 @@ void BM_MultipleShootingGainChain(benchmark::State& state) {
       blocks, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_MultipleShootingGainChain)
-    ->RangeMultiplier(2)
-    ->Range(250, 4000)
+    ->Arg(250)
+    ->Arg(500)
+    ->Arg(1000)
+    ->Arg(2000)
+    ->Arg(4000)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1)
     ->Complexity(benchmark::oN);

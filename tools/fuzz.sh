@@ -17,10 +17,7 @@ harnesses=("$@")
 if [ ${#harnesses[@]} -eq 0 ]; then harnesses=(problem_file csv mat parameter_file equation); fi
 
 build="$GRAYBOX_ROOT/build-fuzz"
-cmake -S "$GRAYBOX_ROOT" -B "$build" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
-  -DGRAYBOX_FUZZ=ON -DGRAYBOX_WERROR=OFF -DGRAYBOX_BUILD_TESTS=OFF \
-  -DGRAYBOX_BUILD_BENCHMARKS=OFF -DGRAYBOX_BUILD_EXAMPLES=OFF >/dev/null
+graybox_configure_sanitized "$build"
 targets=(--target make_mat_seeds)
 for h in "${harnesses[@]}"; do targets+=(--target "${h}_fuzzer"); done
 cmake --build "$build" -j "$(nproc)" "${targets[@]}"
@@ -42,6 +39,7 @@ seeds_of() {
 run_one() {
   local h=$1 corpus="$build/corpus/$1"
   mkdir -p "$corpus"
+  touch "$build/${h}.started"
   # The working corpus (new inputs go there) first, then the read-only seeds.
   if ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0 \
     UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
@@ -53,6 +51,15 @@ run_one() {
   else
     echo "fuzz: $h: FINDING (log: $build/${h}.log, input: $build/findings/${h}-*)" >&2
     tail -40 "$build/${h}.log" >&2
+    # The input itself, so that a finding in a CI run whose tree is gone can be replayed:
+    # base64 -d > input, then the harness on it (docs/fuzzing.md).
+    for f in $(find "$build/findings" -name "${h}-*" -newer "$build/${h}.started"); do
+      if [ "$(stat -c %s "$f")" -le 65536 ]; then
+        echo "fuzz: $h: $(basename "$f") as base64:" >&2
+        base64 -w 0 "$f" >&2
+        echo >&2
+      fi
+    done
     return 1
   fi
 }

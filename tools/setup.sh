@@ -10,7 +10,7 @@ GRAYBOX_PACKAGES=(
   libmatio-dev zlib1g-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   # Tests only: headless rendering of report.html (tests/diagnosis/report_html_test.cc).
   chromium
-  # Tests only: the libFuzzer harnesses (tools/fuzz.sh).
+  # Tests only: the libFuzzer harnesses and the sanitizer build (tools/fuzz.sh, tools/sanitize.sh).
   clang libclang-rt-14-dev
 )
 
@@ -43,6 +43,17 @@ graybox_build() {
   local targets=()
   for t in ${GRAYBOX_TARGETS:-}; do targets+=(--target "$t"); done
   cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"
+}
+
+# graybox_configure_sanitized DIR: configures DIR as the clang build of tools/fuzz.sh and
+# tools/sanitize.sh: AddressSanitizer + UndefinedBehaviorSanitizer and libFuzzer's coverage
+# instrumentation on every translation unit (-O1 -g1), the harnesses and the tests (built only as
+# targets are asked for), no benchmarks or examples.
+graybox_configure_sanitized() {
+  cmake -S "$GRAYBOX_ROOT" -B "$1" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
+    -DGRAYBOX_FUZZ=ON -DGRAYBOX_WERROR=OFF -DGRAYBOX_BUILD_TESTS=ON \
+    -DGRAYBOX_BUILD_BENCHMARKS=OFF -DGRAYBOX_BUILD_EXAMPLES=OFF >/dev/null
 }
 
 GRAYBOX_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

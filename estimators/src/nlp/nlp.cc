@@ -21,6 +21,13 @@ namespace {
 struct BatchScratch {
   std::vector<Eigen::MatrixXd> in, out;
 };
+// What evaluating one Function needs, kept per Function so that repeated evaluations do not
+// allocate: its workspace, and the batch inputs and outputs for chunks of kBatch instances and
+// for the last, shorter chunk.
+struct FunctionScratch {
+  Workspace ws;
+  BatchScratch full, tail;
+};
 }  // namespace
 
 // Per-group derivative Functions, workspaces and scatter maps.
@@ -42,11 +49,8 @@ struct Nlp::Prepared {
   std::size_t rjac_offset = 0;  // first entry of this group's residual Jacobian triplets
   std::vector<int> hess_slot;   // nnz(hess_sp) x instances -> global Hessian entry
   // Mutable scratch (evaluation is not thread-safe per Nlp).
-  mutable Workspace ws_obj, ws_grad, ws_c, ws_jc, ws_r, ws_jr, ws_h;
+  mutable FunctionScratch s_obj, s_grad, s_c, s_jc, s_r, s_jr, s_h;
   mutable Eigen::VectorXd z, buffer;
-  // Inputs and outputs of batched evaluation (EvalBatched), for chunks of kBatch instances and
-  // for the last, shorter chunk, so that repeated evaluations do not allocate.
-  mutable BatchScratch batch_full, batch_tail;
 };
 
 namespace {
@@ -157,10 +161,10 @@ int Nlp::AddGroup(ElementGroup group) {
   p->residuals = Function(group.name + "_r", ins, {{"r", res}});
   p->jac_r = combined.Jacobian("r", "z");
   p->jac_r_sp = p->jac_r.OutputSparsity(0);
-  p->ws_c = p->constraints.MakeWorkspace();
-  p->ws_jc = p->jac_c.MakeWorkspace();
-  p->ws_r = p->residuals.MakeWorkspace();
-  p->ws_jr = p->jac_r.MakeWorkspace();
+  p->s_c.ws = p->constraints.MakeWorkspace();
+  p->s_jc.ws = p->jac_c.MakeWorkspace();
+  p->s_r.ws = p->residuals.MakeWorkspace();
+  p->s_jr.ws = p->jac_r.MakeWorkspace();
   p->z.resize(p->nz);
   p->buffer.resize(std::max({p->nz, p->nc, p->nr, p->jac_c_sp.nnz(), p->jac_r_sp.nnz(), 1}));
   p->constraint_offset = num_constraints_;
@@ -198,8 +202,8 @@ void Nlp::EnsureObjective() const {
                                          {"d", p.combined.InputSymbols(1)}};
     p.objective = Function(p.combined.name() + "_f", ins, {{"f", p.combined.OutputExprs(0)}});
     p.gradient = p.combined.Gradient("f", "z");
-    p.ws_obj = p.objective.MakeWorkspace();
-    p.ws_grad = p.gradient.MakeWorkspace();
+    p.s_obj.ws = p.objective.MakeWorkspace();
+    p.s_grad.ws = p.gradient.MakeWorkspace();
     p.objective_ready = true;
   }
 }
@@ -211,7 +215,7 @@ void Nlp::EnsureHessian() const {
     if (p.hessian_ready) continue;
     p.hessian = expr::HessianOfLagrangian(p.combined, "z", "f", "c");
     p.hess_sp = p.hessian.OutputSparsity(0);
-    p.ws_h = p.hessian.MakeWorkspace();
+    p.s_h.ws = p.hessian.MakeWorkspace();
     if (p.buffer.size() < p.hess_sp.nnz()) p.buffer.resize(p.hess_sp.nnz());
     p.hessian_ready = true;
   }
@@ -492,18 +496,17 @@ EvalStatus EvalInstance(const Function& fn, const ElementGroup& g, int e, const 
 // instance's nc multipliers. The instances run on the batch tape (several points per
 // instruction), which gives the single-point results up to rounding. On a non-finite output the
 // chunk is evaluated again point by point to name the first failing instance, as EvalInstance
-// does; `single_ws` is the workspace for that.
+// does. `scratch` is this Function's own (its sizes stay put between calls).
 template <typename Sink>
 EvalStatus EvalBatched(const Function& fn, const ElementGroup& g, const double* w, int nc,
-                       double sigma, const double* lambda, Workspace* ws, Workspace* single_ws,
-                       Eigen::VectorXd* z, double* single_out, BatchScratch* full,
-                       BatchScratch* tail, int* failed_instance, Sink&& sink) {
+                       double sigma, const double* lambda, FunctionScratch* scratch,
+                       Eigen::VectorXd* z, double* single_out, int* failed_instance, Sink&& sink) {
   const int n = g.NumInstances();
   const int ni = fn.NumInputs();
   const int nz = static_cast<int>(g.index.rows());
   for (int e0 = 0; e0 < n; e0 += kBatch) {
     const int m = std::min(kBatch, n - e0);
-    BatchScratch& b = m == kBatch ? *full : *tail;
+    BatchScratch& b = m == kBatch ? scratch->full : scratch->tail;
     b.in.resize(ni);
     b.in[0].resize(nz, m);
     for (int e = 0; e < m; ++e) {
@@ -519,10 +522,10 @@ EvalStatus EvalBatched(const Function& fn, const ElementGroup& g, const double* 
         }
       }
     }
-    const EvalStatus s = fn.EvaluateBatch(b.in, &b.out, ws);
+    const EvalStatus s = fn.EvaluateBatch(b.in, &b.out, &scratch->ws);
     if (!s.ok) {
       for (int e = e0; e < e0 + m; ++e) {
-        const EvalStatus one = EvalInstance(fn, g, e, w, z, single_ws, single_out, &sigma,
+        const EvalStatus one = EvalInstance(fn, g, e, w, z, &scratch->ws, single_out, &sigma,
                                             lambda + static_cast<std::size_t>(e) * nc);
         if (!one.ok) {
           *failed_instance = e;
@@ -546,9 +549,9 @@ NlpEvalStatus Nlp::Objective(const double* w, double* f) const {
     const Prepared& p = *prepared_[g];
     if (!p.has_objective) continue;
     int failed = -1;
-    const EvalStatus s = EvalBatched(p.objective, groups_[g], w, 0, 0.0, nullptr, &p.ws_obj,
-                                     &p.ws_obj, &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail,
-                                     &failed, [&sum](int, const double* v) { sum += *v; });
+    const EvalStatus s =
+        EvalBatched(p.objective, groups_[g], w, 0, 0.0, nullptr, &p.s_obj, &p.z, p.buffer.data(),
+                    &failed, [&sum](int, const double* v) { sum += *v; });
     if (!s.ok) return Fail(groups_[g], failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {
@@ -568,9 +571,8 @@ NlpEvalStatus Nlp::Gradient(const double* w, double* grad) const {
     if (!p.has_objective) continue;
     const ElementGroup& group = groups_[g];
     int failed = -1;
-    const EvalStatus s = EvalBatched(p.gradient, group, w, 0, 0.0, nullptr, &p.ws_grad, &p.ws_grad,
-                                     &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail, &failed,
-                                     [&](int e, const double* v) {
+    const EvalStatus s = EvalBatched(p.gradient, group, w, 0, 0.0, nullptr, &p.s_grad, &p.z,
+                                     p.buffer.data(), &failed, [&](int e, const double* v) {
                                        for (int k = 0; k < p.nz; ++k)
                                          grad[group.index(k, e)] += v[k];
                                      });
@@ -592,8 +594,8 @@ NlpEvalStatus Nlp::Constraints(const double* w, double* c) const {
     if (p.nc == 0) continue;
     int failed = -1;
     const EvalStatus s = EvalBatched(
-        p.constraints, groups_[g], w, 0, 0.0, nullptr, &p.ws_c, &p.ws_c, &p.z, p.buffer.data(),
-        &p.batch_full, &p.batch_tail, &failed, [&](int e, const double* v) {
+        p.constraints, groups_[g], w, 0, 0.0, nullptr, &p.s_c, &p.z, p.buffer.data(), &failed,
+        [&](int e, const double* v) {
           std::copy(v, v + p.nc, c + p.constraint_offset + static_cast<std::size_t>(e) * p.nc);
         });
     if (!s.ok) return Fail(groups_[g], failed, s);
@@ -607,8 +609,8 @@ NlpEvalStatus Nlp::Residuals(const double* w, double* r) const {
     if (p.nr == 0) continue;
     int failed = -1;
     const EvalStatus s = EvalBatched(
-        p.residuals, groups_[g], w, 0, 0.0, nullptr, &p.ws_r, &p.ws_r, &p.z, p.buffer.data(),
-        &p.batch_full, &p.batch_tail, &failed, [&](int e, const double* v) {
+        p.residuals, groups_[g], w, 0, 0.0, nullptr, &p.s_r, &p.z, p.buffer.data(), &failed,
+        [&](int e, const double* v) {
           std::copy(v, v + p.nr, r + p.residual_offset + static_cast<std::size_t>(e) * p.nr);
         });
     if (!s.ok) return Fail(groups_[g], failed, s);
@@ -629,9 +631,8 @@ NlpEvalStatus Nlp::JacobianValues(const double* w, double* values) const {
     const int nnz = p.jac_c_sp.nnz();
     if (nnz == 0) continue;
     int failed = -1;
-    const EvalStatus s = EvalBatched(p.jac_c, groups_[g], w, 0, 0.0, nullptr, &p.ws_jc, &p.ws_jc,
-                                     &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail, &failed,
-                                     [&](int, const double* v) {
+    const EvalStatus s = EvalBatched(p.jac_c, groups_[g], w, 0, 0.0, nullptr, &p.s_jc, &p.z,
+                                     p.buffer.data(), &failed, [&](int, const double* v) {
                                        std::copy(v, v + nnz, values + offset);
                                        offset += nnz;
                                      });
@@ -647,9 +648,8 @@ NlpEvalStatus Nlp::ResidualJacobianValues(const double* w, double* values) const
     std::size_t offset = p.rjac_offset;
     if (nnz == 0) continue;
     int failed = -1;
-    const EvalStatus s = EvalBatched(p.jac_r, groups_[g], w, 0, 0.0, nullptr, &p.ws_jr, &p.ws_jr,
-                                     &p.z, p.buffer.data(), &p.batch_full, &p.batch_tail, &failed,
-                                     [&](int, const double* v) {
+    const EvalStatus s = EvalBatched(p.jac_r, groups_[g], w, 0, 0.0, nullptr, &p.s_jr, &p.z,
+                                     p.buffer.data(), &failed, [&](int, const double* v) {
                                        std::copy(v, v + nnz, values + offset);
                                        offset += nnz;
                                      });
@@ -673,12 +673,12 @@ NlpEvalStatus Nlp::HessianValues(const double* w, double sigma, const double* la
     const int nnz = p.hess_sp.nnz();
     if (nnz == 0) continue;
     int failed = -1;
-    const EvalStatus s = EvalBatched(
-        p.hessian, groups_[g], w, p.nc, sigma, lambda + p.constraint_offset, &p.ws_h, &p.ws_h, &p.z,
-        p.buffer.data(), &p.batch_full, &p.batch_tail, &failed, [&](int e, const double* v) {
-          const int* slot = p.hess_slot.data() + static_cast<std::size_t>(e) * nnz;
-          for (int k = 0; k < nnz; ++k) values[slot[k]] += v[k];
-        });
+    const EvalStatus s =
+        EvalBatched(p.hessian, groups_[g], w, p.nc, sigma, lambda + p.constraint_offset, &p.s_h,
+                    &p.z, p.buffer.data(), &failed, [&](int e, const double* v) {
+                      const int* slot = p.hess_slot.data() + static_cast<std::size_t>(e) * nnz;
+                      for (int k = 0; k < nnz; ++k) values[slot[k]] += v[k];
+                    });
     if (!s.ok) return Fail(groups_[g], failed, s);
   }
   for (std::size_t b = 0; b < external_.size(); ++b) {

@@ -3,11 +3,17 @@
 # tools/fuzz.sh, build-fuzz/: every translation unit instrumented, -O1 -g1) and runs it: any
 # out-of-bounds access, use after free, leak, signed overflow or other undefined behaviour fails
 # the test that caused it. docs/testing.md: what it covers and how long it takes.
-# Usage: tools/sanitize.sh [LABEL...]   labels are the test folders (expr models estimators
-#        diagnosis withheld apps); default: all of them, the whole suite.
+# Usage: tools/sanitize.sh [--skip-long] [LABEL...]   labels are the test folders (expr models
+#        estimators diagnosis withheld apps); default: all of them, the whole suite.
+#        --skip-long leaves out the tests also labelled "long" (minutes under the sanitizers).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 graybox_install_packages
+exclude=()
+if [ "${1:-}" = "--skip-long" ]; then
+  exclude=(-LE '^long$')
+  shift
+fi
 labels=("$@")
 if [ ${#labels[@]} -eq 0 ]; then labels=(expr models estimators diagnosis withheld apps); fi
 build="$GRAYBOX_ROOT/build-fuzz"
@@ -28,4 +34,4 @@ done
 regex="^($(IFS='|'; echo "${labels[*]}"))\$"
 ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0 \
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-  ctest --test-dir "$build" --output-on-failure -j "$(nproc)" -L "$regex"
+  ctest --test-dir "$build" --output-on-failure -j "$(nproc)" -L "$regex" "${exclude[@]}"

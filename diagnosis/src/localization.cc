@@ -1,5 +1,6 @@
 // Localize: the decompositions of localization.h.
 #include "graybox/diagnosis/localization.h"
+#include "graybox/util/matrix_rows.h"
 
 #include <algorithm>
 #include <cmath>
@@ -362,7 +363,7 @@ Localization Localize(const models::StateSpaceModel& model, const Eigen::VectorX
       const int k = s.rows[i], row = s.offset + static_cast<int>(i);
       y.row(row) = s.eval->measured.row(k);
       r.row(row) = s.eval->measured.row(k) - s.eval->simulated.row(k);
-      u.row(row) = s.eval->inputs.row(k);
+      util::CopyRow(s.eval->inputs, k, u, row);
     }
   }
   for (size_t i = 0; i < used.size(); ++i) {

@@ -11,6 +11,7 @@
 #include "graybox/estimators/data/preprocessing.h"
 #include "graybox/estimators/nlp/weights.h"
 #include "graybox/expr/matrix.h"
+#include "graybox/util/matrix_rows.h"
 
 namespace graybox::estimators::internal {
 
@@ -276,7 +277,7 @@ EquationModel BuildEquationModel(const estimators::Problem& problem,
                          {{"defect", defect}, {"f", level}});
     for (int s = 0; s < kAffinityCheckSamples; ++s) {
       const Eigen::Index k = rows * s / kAffinityCheckSamples;
-      const Eigen::VectorXd xk = full.x.row(k).transpose(), uk = full.u.row(k).transpose();
+      const Eigen::VectorXd xk = util::RowAsVector(full.x, k), uk = util::RowAsVector(full.u, k);
       Eigen::VectorXd uk2 = uk;
       for (int j : model.inverse_inputs) uk2[j] = 2.0 * uk[j] + 1.0;
       for (const Eigen::VectorXd* up : {&uk, static_cast<const Eigen::VectorXd*>(&uk2)}) {
@@ -313,8 +314,8 @@ EquationModel BuildEquationModel(const estimators::Problem& problem,
       picks.push_back(rows * s / kAffinityCheckSamples);
     Eigen::MatrixXd xs(picks.size(), nx), us(picks.size(), nu), xds(picks.size(), nc);
     for (std::size_t s = 0; s < picks.size(); ++s) {
-      xs.row(s) = full.x.row(picks[s]);
-      us.row(s) = full.u.row(picks[s]);
+      util::CopyRow(full.x, picks[s], xs, static_cast<Eigen::Index>(s));
+      util::CopyRow(full.u, picks[s], us, static_cast<Eigen::Index>(s));
       xds.row(s) = full.xdot.row(picks[s]);
     }
     const Eigen::MatrixXd g0 = EvaluateTarget(model, xs, us, xds, p0);

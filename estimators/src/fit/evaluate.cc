@@ -7,6 +7,7 @@
 #include "graybox/estimators/fit/fit.h"
 #include "graybox/estimators/integrators/integrator_factory.h"
 #include "graybox/expr/derivative_check.h"
+#include "graybox/util/matrix_rows.h"
 
 namespace graybox::estimators {
 
@@ -105,7 +106,7 @@ std::vector<DerivativeCheckLine> CheckModelDerivatives(const Problem& problem,
                                                        const Eigen::VectorXd& values) {
   std::vector<DerivativeCheckLine> lines;
   const models::StateSpaceModel& m = problem.built;
-  const Eigen::VectorXd u0 = split.experiment.u.row(0).transpose();
+  const Eigen::VectorXd u0 = util::RowAsVector(split.experiment.u, 0);
   for (const auto* f : {&m.dynamics, &m.output}) {
     const std::string out = f->OutputName(0);
     for (const char* in : {"x", "u", "p"}) {

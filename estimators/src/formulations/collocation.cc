@@ -9,6 +9,7 @@
 #include "formulations/experiment_checks.h"
 #include "graybox/estimators/integrators/integrators.h"
 #include "graybox/estimators/nlp/weights.h"
+#include "graybox/util/matrix_rows.h"
 
 namespace graybox::estimators {
 
@@ -266,14 +267,14 @@ CollocationProblem BuildCollocation(const models::StateSpaceModel& model,
         for (int i = 0; i < nx; ++i) interval.index(zi++, col) = colloc_vars[e](k * deg + j, i);
       }
       for (int i = 0; i < nx; ++i) interval.index(zi++, col) = state_vars[e](k + 1, i);
-      interval.data.col(col) << q, ex.u.row(k).transpose(), ex.y.row(k).transpose();
+      interval.data.col(col) << q, util::RowAsVector(ex.u, k), util::RowAsVector(ex.y, k);
     }
     int zi = 0;
     for (int i = 0; i < nf; ++i) last.index(zi++, static_cast<Eigen::Index>(e)) = i;
     for (int i = 0; i < nx; ++i)
       last.index(zi++, static_cast<Eigen::Index>(e)) = state_vars[e](n - 1, i);
-    last.data.col(static_cast<Eigen::Index>(e)) << q, ex.u.row(n - 1).transpose(),
-        ex.y.row(n - 1).transpose();
+    last.data.col(static_cast<Eigen::Index>(e)) << q, util::RowAsVector(ex.u, n - 1),
+        util::RowAsVector(ex.y, n - 1);
   }
   interval.lbc = Eigen::VectorXd::Zero((deg + 1) * nx);
   interval.ubc = Eigen::VectorXd::Zero((deg + 1) * nx);

@@ -12,6 +12,7 @@
 #include "graybox/expr/derivatives.h"
 #include "graybox/expr/matrix.h"
 #include "graybox/models/block.h"  // DidYouMean
+#include "graybox/util/matrix_rows.h"
 #include "integrators/integrator_internal.h"
 
 namespace graybox::estimators {
@@ -454,9 +455,8 @@ SensitivityTrajectory Integrator::Run(const Eigen::VectorXd& x0, const Eigen::Ma
   }
   Eigen::MatrixXd dy(ny, ns);
   for (Eigen::Index k = 0; k <= last; ++k) {
-    // A row of a matrix without columns is not taken (Eigen offsets its null data pointer).
-    if (nx > 0) xk = t.x.row(k).transpose();
-    if (nu > 0) uk = u.row(k).transpose();
+    xk = util::RowAsVector(t.x, k);
+    uk = util::RowAsVector(u, k);
     const double* in[3] = {xk.data(), uk.data(), p.data()};
     double* out[1] = {yk.data()};
     const expr::EvalStatus st = model_.output.Evaluate(in, out, &ws);
@@ -564,7 +564,7 @@ void FixedStepIntegrator::IntegrateStates(const StateRequest& r) const {
   }
   const char* scheme = StepSchemeName(options_.scheme);
   for (Eigen::Index k = 0; k + 1 < n; ++k) {
-    if (nu > 0) uk = r.u->row(k).transpose();
+    uk = util::RowAsVector(*r.u, k);
     for (int sub = 0; sub < options_.substeps; ++sub) {
       const double* in[3] = {x.data(), uk.data(), r.p->data()};
       if (d) {

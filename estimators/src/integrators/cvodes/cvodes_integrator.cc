@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "graybox/models/block.h"  // DidYouMean
+#include "graybox/util/matrix_rows.h"
 #include "integrators/integrator_internal.h"
 
 namespace graybox::estimators {
@@ -558,7 +559,7 @@ void CvodesIntegrator::IntegrateStates(const StateRequest& r) const {
     // Rows of an input matrix without columns are not taken (Eigen offsets its null data
     // pointer): without inputs, the whole record is one segment.
     while (b + 1 < n && (nu == 0 || r.u->row(b) == r.u->row(a))) ++b;
-    if (nu > 0) u_held = r.u->row(a).transpose();
+    u_held = util::RowAsVector(*r.u, a);
     data.u = u_held.data();
     data.cache_valid = false;
     const double t_a = static_cast<double>(a) * dt(), t_b = static_cast<double>(b) * dt();

@@ -408,21 +408,10 @@ void ParseModel(const Section& root, Problem* problem) {
 
 }  // namespace internal
 
-Problem ParseProblem(const std::string& text, const std::string& path) {
-  Problem problem;
-  problem.path = path;
-  problem.directory = fs::path(path).parent_path().string();
-  if (problem.directory.empty()) problem.directory = ".";
-  toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    SourceLocation where;
-    where.file = path;
-    where.line = static_cast<int>(e.source().begin.line);
-    where.column = static_cast<int>(e.source().begin.column);
-    throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
-  }
+namespace {
+
+// The sections of a parsed (and overridden) file.
+Problem ParseProblemTables(const toml::table& root, const std::string& path, Problem problem) {
   const internal::Section top(path, root, "");
   top.Allow({"problem", "model", "data", "estimation", "metrics", "diagnosis"});
   problem.name = fs::path(path).stem().string();
@@ -442,7 +431,45 @@ Problem ParseProblem(const std::string& text, const std::string& path) {
   return problem;
 }
 
-Problem LoadProblem(const std::string& path) {
+}  // namespace
+
+Problem ParseProblem(const std::string& text, const std::string& path) {
+  return ParseProblem(text, path, {});
+}
+
+Problem ParseProblem(const std::string& text, const std::string& path,
+                     const std::vector<ProblemOverride>& overrides) {
+  Problem problem;
+  problem.path = path;
+  problem.directory = fs::path(path).parent_path().string();
+  if (problem.directory.empty()) problem.directory = ".";
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    SourceLocation where;
+    where.file = path;
+    where.line = static_cast<int>(e.source().begin.line);
+    where.column = static_cast<int>(e.source().begin.column);
+    throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
+  }
+  internal::ApplyOverrides(overrides, &root);
+  if (!overrides.empty()) {
+    // The sections are read below as in a file that said so; a defect the overrides cause is
+    // located in the file's tables (an added key has no line): say which overrides were applied.
+    try {
+      return ParseProblemTables(root, path, std::move(problem));
+    } catch (const ProblemFileError& e) {
+      throw ProblemFileError(
+          e.where(), e.message() + " (overrides: " + internal::OverridesText(overrides) + ")");
+    }
+  }
+  return ParseProblemTables(root, path, std::move(problem));
+}
+
+Problem LoadProblem(const std::string& path) { return LoadProblem(path, {}); }
+
+Problem LoadProblem(const std::string& path, const std::vector<ProblemOverride>& overrides) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     SourceLocation where;
@@ -454,7 +481,7 @@ Problem LoadProblem(const std::string& path) {
   }
   std::ostringstream text;
   text << in.rdbuf();
-  return ParseProblem(text.str(), path);
+  return ParseProblem(text.str(), path, overrides);
 }
 
 }  // namespace graybox::estimators

@@ -27,6 +27,10 @@ std::string TypeName(const toml::node& n);
 std::string ValueText(const toml::node& n);
 /// '*' matches any run of characters (possibly empty); every other character matches itself.
 bool GlobMatch(const std::string& pattern, const std::string& text);
+/// Sets each override's key in `root` (problem_overrides.cc; ParseProblem's contract).
+void ApplyOverrides(const std::vector<ProblemOverride>& overrides, toml::table* root);
+/// "key = value, key = value" for messages.
+std::string OverridesText(const std::vector<ProblemOverride>& overrides);
 
 // A TOML table being read: typed access with messages that name the file, the table path and the
 // line, and a check that rejects unknown keys with a suggestion.

@@ -358,10 +358,34 @@ struct Problem {
   DiagnosisSpec diagnosis;
 };
 
+/// One key of a problem file set from outside the file (a bench suite's variation, bench/runner).
+///   key    a dotted path of tables to the key: "estimation.method",
+///          "estimation.multiple_shooting.segment_length"; a part that is not a bare TOML key is
+///          written in double quotes: model.parameters."load.mass".
+///   value  a TOML value: "\"collocation\"", "20", "1e-6", "true", "[1, 2]", "{ value = 80.0 }".
+///   origin where the override comes from, for messages (the suite file's line).
+struct ProblemOverride {
+  std::string key;
+  std::string value;
+  SourceLocation origin;
+  /// "key = value".
+  std::string ToString() const { return key + " = " + value; }
+};
+
 /// Reads, parses and checks a problem file (no data is read). Throws ProblemFileError.
 Problem LoadProblem(const std::string& path);
+/// The same with `overrides` applied (see ParseProblem).
+Problem LoadProblem(const std::string& path, const std::vector<ProblemOverride>& overrides);
 /// The same from text; `path` names the file in messages and anchors relative data paths.
 Problem ParseProblem(const std::string& text, const std::string& path);
+/// ParseProblem with `overrides` set in the file's tables, in order, before they are read: a key
+/// the file has is replaced, one it lacks is added (with the tables on its path), and the result
+/// is checked as a file that said so. A key whose path runs through a value that is not a table,
+/// or a value that is not TOML, throws ProblemFileError at the override's origin; any other
+/// defect the overrides cause throws as in the file, its message ending with the overrides
+/// applied ("... (overrides: estimation.method = \"collocation\")").
+Problem ParseProblem(const std::string& text, const std::string& path,
+                     const std::vector<ProblemOverride>& overrides);
 
 /// One split of one data file, ready for the formulations.
 struct SplitData {

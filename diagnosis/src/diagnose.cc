@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <future>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -216,8 +218,12 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   d.problem = problem.name;
   d.options = options;
   Stopwatch clock;
+  // Progress comes from the screening's workers and from the reference's thread: one at a time.
+  std::mutex progress_mutex;
   auto progress = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
+    if (!options.progress) return;
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    options.progress(line);
   };
 
   progress("nominal fit of " + problem.name);
@@ -242,11 +248,22 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
       Localize(problem.built, d.nominal.values, d.nominal.evaluations, options.localization);
   d.seconds.emplace_back("localisation", clock.Lap());
   d.gap = kNaN;
+  // The flexible reference depends on the nominal fit only, and round 1 needs it only after its
+  // re-fits: it is fitted on its own thread beside round 1, whose re-fits leave a core idle
+  // while they wait for Ipopt's process-wide lock (its Ceres solve does not take that lock;
+  // re-fit budgets are thread CPU time, so the rounds' outcome does not change).
+  std::future<FlexibleReference> reference;
+  double reference_seconds = 0.0;
   if (options.fit_reference) {
-    progress("flexible reference: networks on every mechanical axis");
-    d.reference = FitFlexibleReference(problem, splits, d.nominal, options.reference);
-    progress(d.reference.BriefReport());
-    d.seconds.emplace_back("flexible reference", clock.Lap());
+    progress("flexible reference: networks on every mechanical axis (beside round 1)");
+    reference = std::async(std::launch::async, [&]() {
+      const auto t0 = std::chrono::steady_clock::now();
+      FlexibleReference r = FitFlexibleReference(problem, splits, d.nominal, options.reference);
+      reference_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      progress(r.BriefReport());
+      return r;
+    });
   } else {
     d.reference.failure = "not fitted (DiagnoseOptions::fit_reference is false)";
     d.reference.validation_nrmse = kNaN;
@@ -268,6 +285,10 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
     SelectionRound r;
     r.round = round;
     r.screening = ScreenAndRefit(current, current_splits, current_fit, screening);
+    if (round == 1 && reference.valid()) {
+      d.reference = reference.get();
+      d.seconds.emplace_back("flexible reference (beside round 1)", reference_seconds);
+    }
     if (round == 1) {
       d.validation_role = r.screening.validation_role;
       d.nominal_validation_nrmse = r.screening.nominal_validation_nrmse;

@@ -84,7 +84,9 @@
 // does not explain the gap: 93 % of the residual's structured energy remains, in <place>".
 //
 // Threads. Screening and re-fits run on options.screening.num_threads threads (screening.h);
-// Ipopt's own code runs under the estimators' process-wide lock, the evaluations overlap.
+// Ipopt's own code runs under the estimators' process-wide lock, the evaluations overlap. The
+// flexible reference (step 2) is fitted on one more thread beside round 1 (it needs only the
+// nominal fit; round 1 waits for it at its end). options.progress is called one line at a time.
 //
 // Failure behaviour. Invalid options throw std::invalid_argument naming the field
 // (DiagnoseOptions::Validate); a problem or data defect throws from estimators::Fit as a fit does;
@@ -206,7 +208,10 @@ struct DiagnosisReport {
   /// At least one effect accepted and structured_remaining <= max_structured_remaining.
   bool explained = false;
   std::string verdict;
-  /// Wall time per phase: "nominal fit", "localisation", "round 1", ..., "remainder".
+  /// Wall time per phase: "nominal fit", "localisation", "round 1", ..., "remainder",
+  /// "sparse regression", and "flexible reference (beside round 1)": the reference is fitted on
+  /// its own thread while round 1 runs, so its time overlaps round 1's (which includes any wait
+  /// for the reference at the round's end) and the phases do not add up to the total.
   std::vector<std::pair<std::string, double>> seconds;
 
   /// The verdict and the figures in one line each for the nominal and final validation NRMSE.

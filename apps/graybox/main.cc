@@ -6,6 +6,8 @@
 //   graybox check PROBLEM [--check-derivatives]
 //   graybox diagnose PROBLEM --out DIR [--max-effects N] [--refit-top N] [--threads N]
 //                    [--effects a,b,...]
+//   graybox bench SUITE --out DIR [--jobs N] [--shard K/N] [--filter GLOB]
+//   graybox bench case SUITE --case ID --record FILE
 //   graybox bench withheld --out DIR [--fast] [--cases s1,s2] [--max-effects N] [--refit-top N]
 //                          [--threads N] [--effects a,b,...]
 //
@@ -122,8 +124,26 @@ int main(int argc, char** argv) {
                          "a block option key=value (numbers: key=1 or key=1,2; else a word); "
                          "repeatable");
 
-  CLI::App* bench_cmd = app.add_subcommand("bench", "benchmarks of the library");
-  bench_cmd->require_subcommand(1);
+  CommandOptions bench, bench_case;
+  CLI::App* bench_cmd = app.add_subcommand(
+      "bench",
+      "run a suite of problems and variations, each case in its own process (docs/bench.md): "
+      "DIR/bench.json, bench.csv, bench.md; or a benchmark of the library (withheld)");
+  bench_cmd->require_subcommand(0, 1);
+  bench_cmd->add_option("suite", bench.suite, "suite file (TOML) or folder of problem files");
+  bench_cmd->add_option("--out,-o", bench.out, "output directory (bench.json)");
+  bench_cmd->add_option("--jobs,-j", bench.jobs, "cases at a time (default 1)")
+      ->check(CLI::PositiveNumber);
+  bench_cmd->add_option("--shard", bench.shard,
+                        "run the K-th of N parts of the cases, K/N (balanced, deterministic)");
+  bench_cmd->add_option("--filter", bench.filter,
+                        "only the cases whose id matches this glob ('*': any characters)");
+  CLI::App* case_cmd = bench_cmd->add_subcommand(
+      "case", "run one case of a suite in this process and write its record (what bench runs)");
+  case_cmd->add_option("suite", bench_case.suite, "suite file or folder")->required();
+  case_cmd->add_option("--case", bench_case.case_id, "the case's id")->required();
+  case_cmd->add_option("--record", bench_case.record, "where to write its record (JSON)")
+      ->required();
   CLI::App* withheld_cmd = bench_cmd->add_subcommand(
       "withheld",
       "run the diagnosis on the withheld-effect cases (problems/withheld) and score it: "
@@ -160,6 +180,16 @@ int main(int argc, char** argv) {
   if (sim_cmd->parsed()) return graybox::app::RunSimulate(simulate);
   if (diagnose_cmd->parsed()) return graybox::app::RunDiagnose(diagnose);
   if (withheld_cmd->parsed()) return graybox::app::RunBenchWithheld(withheld);
+  if (case_cmd->parsed()) return graybox::app::RunBenchCase(bench_case);
+  if (bench_cmd->parsed()) {
+    if (bench.suite.empty() || bench.out.empty()) {
+      std::cerr << "graybox: error: bench: expected a suite and --out DIR (graybox bench SUITE "
+                   "--out DIR), or a subcommand (withheld, case)\n";
+      return graybox::app::kExitBadInput;
+    }
+    bench.command_line = command_line;
+    return graybox::app::RunBench(bench);
+  }
   if (blocks_cmd->parsed()) return graybox::app::RunBlocks(blocks);
   return graybox::app::RunCheck(check);
 }

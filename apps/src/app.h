@@ -45,6 +45,13 @@ struct CommandOptions {
   // bench withheld only.
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters
+  // bench SUITE and bench case.
+  std::string suite;    // suite file or folder
+  int jobs = 1;         // cases at a time
+  std::string shard;    // "K/N" or empty
+  std::string filter;   // glob over case ids
+  std::string case_id;  // bench case: the case to run
+  std::string record;   // bench case: where its record goes
   // blocks only.
   std::string block_type;                  // empty: list every type
   std::vector<std::string> block_options;  // "key=value" ("key=1,2" numbers, else a word)
@@ -57,6 +64,11 @@ int RunDiagnose(const CommandOptions& options);
 /// The diagnosis on the withheld-effect cases (bench/withheld): writes DIR/bench.json, prints the
 /// confusion table and the pass marks.
 int RunBenchWithheld(const CommandOptions& options);
+/// The batch runner (bench/runner): every case of a suite in its own process; writes
+/// DIR/bench.json, bench.csv, bench.md and DIR/cases/ (each case's record and log).
+int RunBench(const CommandOptions& options);
+/// One case of a suite in this process (what RunBench starts per case): writes its record.
+int RunBenchCase(const CommandOptions& options);
 /// Lists the registered block types, or describes one (models::DescribeBlock).
 int RunBlocks(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "app.h"
+#include "graybox/bench/runner.h"
 #include "graybox/bench/withheld_bench.h"
 #include "graybox/diagnosis/diagnose.h"
 #include "graybox/diagnosis/report_html.h"
@@ -305,6 +306,90 @@ int RunBenchWithheld(const CommandOptions& o) {
                         bench::WithheldBenchJson(b, RunMetadata(o)));
     Progress("wrote bench.json and the cases' diagnoses: " + out.Commit());
     return kExitSuccess;
+  });
+}
+
+namespace {
+
+// This program's own path (the bench runner starts one process of it per case).
+std::string SelfExecutable() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) throw std::runtime_error("cannot find this program's path (/proc/self/exe)");
+  return self.string();
+}
+
+// --shard K/N: the 1-based shard and the number of shards.
+std::pair<int, int> ParseShard(const std::string& text) {
+  int k = 0, n = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%d/%d%c", &k, &n, &tail) != 2 || n < 1 || k < 1 || k > n) {
+    throw std::invalid_argument("--shard: expected K/N with 1 <= K <= N (e.g. 2/4), got '" + text +
+                                "'");
+  }
+  return {k, n};
+}
+
+}  // namespace
+
+int RunBench(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const Timer total;
+    const bench::Suite suite = bench::LoadSuite(o.suite);
+    const std::vector<bench::Case> all = bench::ExpandCases(suite);
+    std::vector<bench::Case> cases = bench::FilterCases(all, o.filter);
+    if (cases.empty()) {
+      throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite + "): no case of " +
+                                  std::to_string(all.size()) + " matches --filter '" + o.filter +
+                                  "'");
+    }
+    std::string shard_text;
+    if (!o.shard.empty()) {
+      const auto [k, n] = ParseShard(o.shard);
+      cases = bench::SelectShard(cases, k, n);
+      shard_text = ", shard " + o.shard;
+    }
+    RunOutput out(o.out);
+    Progress("graybox bench: suite '" + suite.name + "' (" + o.suite +
+             "): " + std::to_string(cases.size()) + " of " + std::to_string(all.size()) + " cases" +
+             shard_text + ", " + std::to_string(o.jobs) + " at a time");
+    bench::RunOptions options;
+    options.jobs = o.jobs;
+    options.case_command = {SelfExecutable(), "bench", "case", o.suite};
+    options.work_dir = out.path();
+    options.progress = StampedProgress(total, "  ");
+    const std::vector<bench::CaseRecord> records = bench::RunSuite(suite, cases, options);
+    const std::string md = bench::BenchMarkdown(suite, records);
+    namespace fs = std::filesystem;
+    WriteFileAtomically((fs::path(out.path()) / "bench.csv").string(), bench::BenchCsv(records));
+    WriteFileAtomically((fs::path(out.path()) / "bench.md").string(), md);
+    std::vector<std::pair<std::string, std::string>> run = RunMetadata(o);
+    run.emplace_back("shard", o.shard);
+    run.emplace_back("filter", o.filter);
+    run.emplace_back("jobs", std::to_string(o.jobs));
+    run.emplace_back("wall_seconds", Sci(total.Seconds()));
+    // bench.json last: a reader that finds it finds the other outputs too.
+    WriteFileAtomically((fs::path(out.path()) / "bench.json").string(),
+                        bench::BenchJson(suite, records, run));
+    Progress(md.substr(md.find("## Summary")));
+    Progress("wrote bench.json, bench.csv, bench.md and the cases' records and logs: " +
+             out.Commit() + " (" + Sci(total.Seconds()) + " s)");
+    return kExitSuccess;
+  });
+}
+
+int RunBenchCase(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const bench::Suite suite = bench::LoadSuite(o.suite);
+    for (const bench::Case& c : bench::ExpandCases(suite)) {
+      if (c.id != o.case_id) continue;
+      const bench::CaseRecord r = bench::RunCase(suite, c);
+      Progress("case " + c.id + ": " + r.status + (r.error.empty() ? "" : " (" + r.error + ")"));
+      WriteFileAtomically(o.record, bench::CaseRecordJson(r));
+      return kExitSuccess;
+    }
+    throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite + ") has no case '" +
+                                o.case_id + "'");
   });
 }
 

@@ -1,0 +1,124 @@
+// The batch runner: runs a suite's cases (suite.h), each in its own process, up to `jobs` at a
+// time, with a wall-time limit per case, and collects one record per case (docs/bench.md).
+//
+//   RunCase     one case in this process: LoadProblem with the case's overrides, the free
+//               parameters' start values perturbed by the case's seed, LoadData, estimators::Fit
+//               (its solve limited to the suite's time_limit); the record of what happened.
+//               Errors of the problem or its data are recorded (status "error"), not thrown.
+//   RunSuite    every case in a child process: RunOptions::case_command + {"--case", id,
+//               "--record", FILE} (the command line's `graybox bench case SUITE`, which calls
+//               RunCase and writes the record as JSON); a case whose process exits without a
+//               record is "crashed" (with its exit code or signal), one past time_limit is killed
+//               (SIGKILL) and "timed_out"; the run goes on. Each case in its own process because
+//               Ipopt 3.11 with sequential MUMPS is not known to be thread-safe, and so that a
+//               crash or a runaway solve takes only its case.
+//   Shards      SelectShard: the k-th of n parts of the cases, balanced by estimated cost
+//               (greedy longest-first over RunOptions::cost_of, default 1 per case), deterministic.
+//
+// Statuses: "ok" (the solver converged), "not_converged" (a usable iterate: iteration or time
+// limit), "failed" (no usable solution), "error" (the problem or its data were refused; the
+// message in `error`), "crashed", "timed_out", "interrupted" (RunOptions::interrupted).
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "graybox/bench/suite.h"
+
+namespace graybox::bench {
+
+/// Metrics of one output channel (or "overall") of one split: the simulation metrics of
+/// estimators::MetricReport (NRMSE = RMSE / std of the measured channel, FIT %, R^2).
+struct ChannelRecord {
+  std::string split;
+  std::string role;     // "estimation", "validation", "test"
+  std::string channel;  // output name, or "overall" (the split's combined metrics)
+  double nrmse = 0.0, fit_percent = 0.0, r2 = 0.0;
+};
+
+struct ParameterRecord {
+  std::string name;
+  double value = 0.0;
+  double std_error = 0.0;  // NaN without a covariance
+  bool free = false;
+};
+
+/// What one case did.
+struct CaseRecord {
+  std::string suite;
+  std::string id;
+  std::string problem;                 // the problem file
+  std::string problem_name;            // [problem] name
+  std::vector<std::string> variation;  // "key = value" per override
+  unsigned seed = 1;
+  std::string status;    // see the file comment
+  int exit_code = 0;     // of the case's process (RunSuite); 0 in RunCase
+  std::string error;     // why, for error / crashed / timed_out / failed
+  double seconds = 0.0;  // wall time of the case (its process, for RunSuite)
+  std::string method, solver, solver_status;
+  int iterations = 0;
+  double cost = 0.0;
+  std::vector<ParameterRecord> parameters;
+  std::vector<ChannelRecord> metrics;
+};
+
+/// The case in this process (file comment).
+CaseRecord RunCase(const Suite& suite, const Case& c);
+
+struct RunOptions {
+  /// Cases at a time (>= 1).
+  int jobs = 1;
+  /// The command that runs one case and writes its record (argv, without "--case ID --record
+  /// FILE"); `graybox bench` passes {itself, "bench", "case", SUITE}.
+  std::vector<std::string> case_command;
+  /// Folder for the cases' records and logs (DIR/cases/<n>.json, <n>.log); must exist.
+  std::string work_dir;
+  /// Extra seconds past the suite's time_limit before a case's process is killed (the case's
+  /// solve stops itself at time_limit and writes its record; this covers what follows it).
+  double kill_grace = 30.0;
+  /// Progress lines (cases done / total, running, failed, elapsed, estimated time left);
+  /// called from the calling thread.
+  std::function<void(const std::string&)> progress;
+  /// Asked between polls: true stops launching cases and kills the running ones (recorded as
+  /// "interrupted").
+  std::function<bool()> interrupted;
+  /// Throws std::invalid_argument naming the first invalid field.
+  void Validate() const;
+};
+
+/// Every case of `cases` in its own process (file comment); the records in the cases' order.
+std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& cases,
+                                 const RunOptions& options);
+
+/// The k-th (1-based) of n shards of `cases`: cases are dealt longest-first (by `cost_of`, 1 per
+/// case when empty) to the currently lightest shard, ties to the lower shard; the result keeps
+/// the cases' order. Throws std::invalid_argument unless 1 <= k <= n.
+std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,
+                              const std::function<double(const Case&)>& cost_of = {});
+
+/// The record as JSON, and back (throws std::invalid_argument naming the field on a malformed
+/// record).
+std::string CaseRecordJson(const CaseRecord& r);
+CaseRecord ParseCaseRecordJson(const std::string& json);
+
+/// "AMD EPYC 7B13 (2 cores), Debian GNU/Linux 12 (bookworm)": the CPU model of /proc/cpuinfo,
+/// the hardware threads, the OS's PRETTY_NAME.
+struct Machine {
+  std::string cpu;
+  int cores = 0;
+  std::string os;
+};
+Machine ThisMachine();
+
+/// DIR/bench.json: {"schema", "suite", "run": {metadata...}, "machine", "cases": [records]}.
+std::string BenchJson(const Suite& suite, const std::vector<CaseRecord>& records,
+                      const std::vector<std::pair<std::string, std::string>>& run);
+/// DIR/bench.csv: one row per case, split and channel (a case without metrics: one row).
+std::string BenchCsv(const std::vector<CaseRecord>& records);
+/// DIR/bench.md: one row per case, and the suite's summary (cases, success rate, total and
+/// slowest cases).
+std::string BenchMarkdown(const Suite& suite, const std::vector<CaseRecord>& records);
+
+}  // namespace graybox::bench

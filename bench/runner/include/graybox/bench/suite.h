@@ -1,0 +1,77 @@
+// Bench suites: which problems to run and over which variations (docs/bench.md). A suite is a
+// TOML file in the style of the problem files (the same located errors: unknown keys with a
+// suggestion, file:line:column), or a folder, which runs every problem file in it once.
+//
+//   [suite]
+//   name = "emps"                  # default: the file's stem
+//   description = "..."
+//   problems = ["../problems/emps/emps_idim.toml", "../problems/emps"]   # files or folders,
+//                                  # relative to the suite file; a folder: its *.toml, sorted
+//   time_limit = 600               # [s] wall time of one case (default 1800); the case's process
+//                                  # is killed past it and recorded as timed out
+//
+//   [variations]                   # keys of the problem files (ProblemOverride) and the values
+//   "estimation.method" = ["multiple_shooting", "collocation"]        # to run: the cases are
+//   "estimation.multiple_shooting.segment_length" = [10, 20]          # every combination
+//
+//   [perturbation]                 # start values of the free parameters, per seed:
+//   relative = 0.1                 #   value * (1 + relative * z), z ~ N(0, 1) from the seed,
+//   seeds = [1, 2, 3]              #   clamped to the bounds; one case per seed (default [1])
+//
+// Cases: problems x variations (in key order, values in file order) x seeds, in that order. A
+// case's id is "<problem>/<key>=<value>,.../seed=<s>" (the parts that apply: no variation part
+// without variations, no seed part with a single seed and no perturbation; a string value
+// without its quotes), unique in the suite; --filter selects cases by a glob on it ('*' any run of
+// characters).
+//
+// Failure behaviour: ParseSuite and LoadSuite throw estimators::ProblemFileError with the place
+// (a missing problem file, an empty variation, a value that is not TOML, duplicate ids).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "graybox/estimators/problem/problem_file.h"
+
+namespace graybox::bench {
+
+/// One key and the values it takes over the suite's cases.
+struct Variation {
+  std::string key;                  // dotted problem-file key (estimators::ProblemOverride)
+  std::vector<std::string> values;  // TOML values, as written ("\"collocation\"", "20")
+  estimators::SourceLocation where;
+};
+
+struct Suite {
+  std::string name;
+  std::string description;
+  std::string path;                   // the suite file (or folder)
+  std::vector<std::string> problems;  // problem files, resolved against the suite's folder
+  std::vector<Variation> variations;
+  double relative_perturbation = 0.0;
+  std::vector<unsigned> seeds = {1};
+  double time_limit = 1800.0;  // [s] per case
+};
+
+/// One run: a problem with one value of every variation and one seed.
+struct Case {
+  std::string id;
+  std::string problem;  // path of the problem file
+  std::string problem_name;
+  std::vector<estimators::ProblemOverride> overrides;
+  unsigned seed = 1;
+  double relative_perturbation = 0.0;
+};
+
+/// Reads a suite file, or a folder of problem files. Throws estimators::ProblemFileError.
+Suite LoadSuite(const std::string& path);
+/// A suite from text; `path` names it in messages and anchors relative problem paths.
+Suite ParseSuite(const std::string& text, const std::string& path);
+
+/// Every case of the suite, in the suite's order (file comment).
+std::vector<Case> ExpandCases(const Suite& suite);
+
+/// The cases whose id matches the glob `pattern` (every case when it is empty).
+std::vector<Case> FilterCases(const std::vector<Case>& cases, const std::string& pattern);
+
+}  // namespace graybox::bench

@@ -1,0 +1,325 @@
+// The batch runner (runner.h): one case in this process, every case in its own process, shards.
+#include "graybox/bench/runner.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "graybox/estimators/fit/fit.h"
+
+extern char** environ;
+
+namespace graybox::bench {
+
+namespace fs = std::filesystem;
+namespace est = graybox::estimators;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::string Fixed(const char* fmt, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), fmt, v);
+  return buf;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The last `lines` lines of a text.
+std::string Tail(const std::string& text, int lines) {
+  std::size_t pos = text.size();
+  while (pos > 0 && (text[pos - 1] == '\n')) --pos;
+  for (int n = 0; n < lines && pos > 0; ++n) {
+    const std::size_t nl = text.rfind('\n', pos - 1);
+    pos = nl == std::string::npos ? 0 : nl;
+  }
+  std::string t = text.substr(pos);
+  while (!t.empty() && t.front() == '\n') t.erase(t.begin());
+  while (!t.empty() && t.back() == '\n') t.pop_back();
+  return t;
+}
+
+}  // namespace
+
+CaseRecord RunCase(const Suite& suite, const Case& c) {
+  const auto t0 = Clock::now();
+  CaseRecord r;
+  r.suite = suite.name;
+  r.id = c.id;
+  r.problem = c.problem;
+  r.problem_name = c.problem_name;
+  r.seed = c.seed;
+  for (const est::ProblemOverride& o : c.overrides) r.variation.push_back(o.ToString());
+  try {
+    est::Problem problem = est::LoadProblem(c.problem, c.overrides);
+    problem.estimation.seed = c.seed;
+    if (c.relative_perturbation > 0.0) {
+      // value (1 + relative z), z ~ N(0, 1) from the case's seed, in parameter order.
+      std::mt19937 rng(c.seed);
+      std::normal_distribution<double> z(0.0, 1.0);
+      for (models::ModelParameter& p : problem.built.parameters) {
+        if (!p.free) continue;
+        p.value = std::clamp(p.value * (1.0 + c.relative_perturbation * z(rng)), p.lower, p.upper);
+        problem.model.SetParameter(p.name, p.value);
+      }
+    }
+    const std::vector<est::SplitData> splits = est::LoadData(problem);
+    est::FitOptions options;
+    options.max_solve_seconds = suite.time_limit;
+    const est::FitResult fit = est::Fit(problem, splits, options);
+    r.method = fit.method;
+    r.solver = fit.solver;
+    r.solver_status = fit.solver_result.status;
+    r.iterations = fit.solver_result.iterations;
+    r.cost = fit.solver_result.cost;
+    r.status = fit.solver_result.success ? "ok"
+               : fit.IsSolutionUsable()  ? "not_converged"
+                                         : "failed";
+    if (r.status != "ok") r.error = fit.solver_result.message;
+    for (const est::FitParameter& p : fit.parameters) {
+      r.parameters.push_back({p.name, p.value, p.std_error, p.free});
+    }
+    for (const est::SplitEvaluation& e : fit.evaluations) {
+      const std::string role = est::SplitRoleName(e.role);
+      for (const est::ChannelMetrics& m : e.simulation.channels) {
+        r.metrics.push_back({e.name, role, m.name, m.nrmse, m.fit_percent, m.r2});
+      }
+      const est::ChannelMetrics& m = e.simulation.overall;
+      r.metrics.push_back({e.name, role, "overall", m.nrmse, m.fit_percent, m.r2});
+    }
+  } catch (const std::exception& e) {
+    r.status = "error";
+    r.error = e.what();
+  }
+  r.seconds = SecondsSince(t0);
+  return r;
+}
+
+void RunOptions::Validate() const {
+  if (jobs < 1) {
+    throw std::invalid_argument("RunOptions.jobs: expected >= 1, got " + std::to_string(jobs));
+  }
+  if (case_command.empty()) {
+    throw std::invalid_argument("RunOptions.case_command: expected a command, got none");
+  }
+  if (work_dir.empty() || !fs::is_directory(work_dir)) {
+    throw std::invalid_argument("RunOptions.work_dir: expected an existing folder, got '" +
+                                work_dir + "'");
+  }
+  if (!(kill_grace >= 0.0)) {
+    throw std::invalid_argument("RunOptions.kill_grace: expected >= 0, got " +
+                                Fixed("%g", kill_grace));
+  }
+}
+
+std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& cases,
+                                 const RunOptions& options) {
+  options.Validate();
+  const fs::path dir = fs::path(options.work_dir) / "cases";
+  fs::create_directories(dir);
+  struct Running {
+    std::size_t index;
+    pid_t pid;
+    Clock::time_point start;
+  };
+  std::vector<CaseRecord> records(cases.size());
+  std::vector<bool> done(cases.size(), false);
+  std::vector<Running> running;
+  std::size_t next = 0, finished = 0, failed = 0;
+  double busy_seconds = 0.0;
+  const auto t0 = Clock::now();
+  auto record_path = [&](std::size_t i) { return (dir / (std::to_string(i) + ".json")).string(); };
+  auto log_path = [&](std::size_t i) { return (dir / (std::to_string(i) + ".log")).string(); };
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  auto launch = [&](std::size_t i) {
+    std::vector<std::string> args = options.case_command;
+    args.insert(args.end(), {"--case", cases[i].id, "--record", record_path(i)});
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    std::error_code ec;
+    fs::remove(record_path(i), ec);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    const std::string log = log_path(i);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+    pid_t pid = -1;
+    const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) {
+      throw std::runtime_error("RunSuite: cannot start '" + args[0] + "': " + std::strerror(rc));
+    }
+    running.push_back({i, pid, Clock::now()});
+  };
+  auto finish = [&](const Running& run, int status, bool timed_out, bool interrupted) {
+    const std::size_t i = run.index;
+    const double seconds = SecondsSince(run.start);
+    busy_seconds += seconds;
+    CaseRecord r;
+    bool have_record = false;
+    if (!timed_out && !interrupted && WIFEXITED(status) && fs::exists(record_path(i))) {
+      try {
+        r = ParseCaseRecordJson(ReadFile(record_path(i)));
+        have_record = true;
+      } catch (const std::exception& e) {
+        r.error = std::string("unreadable record: ") + e.what();
+      }
+    }
+    if (!have_record) {
+      const std::string previous = r.error;
+      r = CaseRecord();
+      r.suite = suite.name;
+      r.id = cases[i].id;
+      r.problem = cases[i].problem;
+      r.problem_name = cases[i].problem_name;
+      r.seed = cases[i].seed;
+      for (const auto& o : cases[i].overrides) r.variation.push_back(o.ToString());
+      if (interrupted) {
+        r.status = "interrupted";
+        r.error = "stopped by an interrupt after " + Fixed("%.1f", seconds) + " s";
+      } else if (timed_out) {
+        r.status = "timed_out";
+        r.error = "killed after " + Fixed("%.1f", seconds) + " s (time_limit " +
+                  Fixed("%g", suite.time_limit) + " s + " + Fixed("%g", options.kill_grace) + " s)";
+      } else {
+        r.status = "crashed";
+        r.error = WIFSIGNALED(status) ? "killed by signal " + std::to_string(WTERMSIG(status)) +
+                                            " (" + strsignal(WTERMSIG(status)) + ")"
+                                      : "exited with code " + std::to_string(WEXITSTATUS(status)) +
+                                            " without a record";
+        if (!previous.empty()) r.error += "; " + previous;
+      }
+      const std::string tail = Tail(ReadFile(log_path(i)), 5);
+      if (!tail.empty()) r.error += "; log: " + tail;
+    }
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.seconds = seconds;
+    records[i] = std::move(r);
+    done[i] = true;
+    ++finished;
+    const std::string& st = records[i].status;
+    if (st != "ok") ++failed;
+    const double elapsed = SecondsSince(t0);
+    const std::size_t left = cases.size() - finished;
+    const double per_case = busy_seconds / static_cast<double>(finished);
+    const double eta = per_case * static_cast<double>(left) / options.jobs;
+    progress("[" + std::to_string(finished) + "/" + std::to_string(cases.size()) + "] " +
+             cases[i].id + ": " + st + " (" + Fixed("%.1f", seconds) + " s); running " +
+             std::to_string(running.size() - 1) + ", not ok " + std::to_string(failed) +
+             ", elapsed " + Fixed("%.0f", elapsed) + " s, left ~" + Fixed("%.0f", eta) + " s");
+  };
+  bool stop = false;
+  while (finished < cases.size()) {
+    if (!stop && options.interrupted && options.interrupted()) stop = true;
+    while (!stop && next < cases.size() && static_cast<int>(running.size()) < options.jobs) {
+      progress("starting " + cases[next].id);
+      launch(next++);
+    }
+    if (stop && running.empty()) break;
+    for (std::size_t k = 0; k < running.size();) {
+      int status = 0;
+      const pid_t w = waitpid(running[k].pid, &status, WNOHANG);
+      const bool over = SecondsSince(running[k].start) > suite.time_limit + options.kill_grace;
+      if (w == 0 && (over || stop)) {
+        kill(running[k].pid, SIGKILL);
+        waitpid(running[k].pid, &status, 0);
+        finish(running[k], status, !stop, stop);
+      } else if (w == running[k].pid) {
+        finish(running[k], status, false, false);
+      } else if (w != 0) {
+        finish(running[k], 0x7f00, false, false);  // lost child: "exited with code 127"
+      } else {
+        ++k;
+        continue;
+      }
+      running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  std::vector<CaseRecord> out;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    if (done[i]) out.push_back(std::move(records[i]));
+  }
+  return out;
+}
+
+std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,
+                              const std::function<double(const Case&)>& cost_of) {
+  if (n < 1 || k < 1 || k > n) {
+    throw std::invalid_argument("SelectShard: expected 1 <= k <= n, got k = " + std::to_string(k) +
+                                ", n = " + std::to_string(n));
+  }
+  std::vector<std::size_t> order(cases.size());
+  std::vector<double> cost(cases.size(), 1.0);
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    order[i] = i;
+    if (cost_of) cost[i] = cost_of(cases[i]);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return cost[a] > cost[b]; });
+  std::vector<double> load(static_cast<std::size_t>(n), 0.0);
+  std::vector<int> shard_of(cases.size(), 0);
+  for (const std::size_t i : order) {
+    const auto lightest = std::min_element(load.begin(), load.end());
+    shard_of[i] = static_cast<int>(lightest - load.begin());
+    *lightest += cost[i];
+  }
+  std::vector<Case> out;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    if (shard_of[i] == k - 1) out.push_back(cases[i]);
+  }
+  return out;
+}
+
+Machine ThisMachine() {
+  Machine m;
+  m.cores = static_cast<int>(std::thread::hardware_concurrency());
+  std::ifstream cpu("/proc/cpuinfo");
+  for (std::string line; std::getline(cpu, line);) {
+    if (line.rfind("model name", 0) == 0) {
+      const std::size_t colon = line.find(':');
+      if (colon != std::string::npos) m.cpu = line.substr(line.find_first_not_of(' ', colon + 1));
+      break;
+    }
+  }
+  std::ifstream os("/etc/os-release");
+  for (std::string line; std::getline(os, line);) {
+    if (line.rfind("PRETTY_NAME=", 0) == 0) {
+      m.os = line.substr(12);
+      if (m.os.size() >= 2 && m.os.front() == '"') m.os = m.os.substr(1, m.os.size() - 2);
+    }
+  }
+  return m;
+}
+
+}  // namespace graybox::bench

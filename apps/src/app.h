@@ -25,6 +25,8 @@ inline constexpr int kExitSuccess = 0;
 inline constexpr int kExitInternalError = 1;
 inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitSolverFailure = 3;
+/// `graybox bench` stopped by Ctrl-C (128 + SIGINT, as shells report it): what was done is written.
+inline constexpr int kExitInterrupted = 130;
 
 /// Options shared by the commands (filled by main.cc from the command line).
 struct CommandOptions {

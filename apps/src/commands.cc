@@ -3,6 +3,7 @@
 // outputs are written atomically, result.json last.
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -319,6 +320,10 @@ std::string SelfExecutable() {
   return self.string();
 }
 
+// Set by SIGINT while `graybox bench` runs its cases.
+volatile std::sig_atomic_t bench_interrupted = 0;
+void OnBenchInterrupt(int) { bench_interrupted = 1; }
+
 // --shard K/N: the 1-based shard and the number of shards.
 std::pair<int, int> ParseShard(const std::string& text) {
   int k = 0, n = 0;
@@ -358,7 +363,23 @@ int RunBench(const CommandOptions& o) {
     options.case_command = {SelfExecutable(), "bench", "case", o.suite};
     options.work_dir = out.path();
     options.progress = StampedProgress(total, "  ");
-    const std::vector<bench::CaseRecord> records = bench::RunSuite(suite, cases, options);
+    // Ctrl-C: the running cases are stopped and recorded as interrupted, what is done is written
+    // (the cases run in their own process groups, so the signal reaches this process only).
+    options.interrupted = []() { return bench_interrupted != 0; };
+    bench_interrupted = 0;
+    struct sigaction action = {}, previous = {};
+    action.sa_handler = OnBenchInterrupt;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &previous);
+    std::vector<bench::CaseRecord> records;
+    try {
+      records = bench::RunSuite(suite, cases, options);
+    } catch (...) {
+      sigaction(SIGINT, &previous, nullptr);
+      throw;
+    }
+    sigaction(SIGINT, &previous, nullptr);
+    const bool interrupted = bench_interrupted != 0;
     const std::string md = bench::BenchMarkdown(suite, records);
     namespace fs = std::filesystem;
     WriteFileAtomically((fs::path(out.path()) / "bench.csv").string(), bench::BenchCsv(records));
@@ -368,12 +389,18 @@ int RunBench(const CommandOptions& o) {
     run.emplace_back("filter", o.filter);
     run.emplace_back("jobs", std::to_string(o.jobs));
     run.emplace_back("wall_seconds", Sci(total.Seconds()));
+    run.emplace_back("interrupted", interrupted ? "true" : "false");
     // bench.json last: a reader that finds it finds the other outputs too.
     WriteFileAtomically((fs::path(out.path()) / "bench.json").string(),
                         bench::BenchJson(suite, records, run));
     Progress(md.substr(md.find("## Summary")));
     Progress("wrote bench.json, bench.csv, bench.md and the cases' records and logs: " +
              out.Commit() + " (" + Sci(total.Seconds()) + " s)");
+    if (interrupted) {
+      Progress("interrupted: " + std::to_string(records.size()) + " of " +
+               std::to_string(cases.size()) + " cases recorded");
+      return kExitInterrupted;
+    }
     return kExitSuccess;
   });
 }

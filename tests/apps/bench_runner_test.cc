@@ -211,5 +211,32 @@ TEST_F(BenchSuite, TheCommandWritesBenchJsonCsvAndMarkdown) {
   EXPECT_FALSE(std::filesystem::exists(Path("out2")));
 }
 
+// Ctrl-C during a run: the running case is stopped and recorded, the outputs of what was done are
+// written, exit 130.
+TEST_F(BenchSuite, AnInterruptedCommandWritesWhatWasDone) {
+  const std::string problem =
+      std::string(GRAYBOX_SOURCE_DIR) + "/problems/emps/emps_closed_loop.toml";
+  if (!std::filesystem::exists(std::string(GRAYBOX_SHARED_DATA_DIR) + "/emps/DATA_EMPS.mat")) {
+    GTEST_SKIP() << "no EMPS data";
+  }
+  // Three closed-loop fits of 1 to 3 s each, one at a time; SIGINT after 1.5 s, when the first or
+  // the second is running.
+  WriteText(Path("s.toml"), "[suite]\nproblems = [\"" + problem +
+                                "\"]\n[perturbation]\nrelative = 0.1\nseeds = [1, 2, 3]\n");
+  const apps_testing::RunResult r =
+      apps_testing::RunGraybox("bench s.toml --out out", Path("log.txt"), dir_.path().string(),
+                               "timeout --preserve-status -s INT 1.5 ");
+  EXPECT_EQ(r.exit_code, 130) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(ReadText(Path("out/bench.json")));
+  EXPECT_EQ(j.at("run").at("interrupted").get<std::string>(), "true");
+  const auto& cases = j.at("cases");
+  ASSERT_GE(cases.size(), 1u) << r.output;
+  ASSERT_LE(cases.size(), 2u) << r.output;
+  EXPECT_EQ(cases.back().at("status").get<std::string>(), "interrupted");
+  EXPECT_TRUE(
+      Contains(r.output, "interrupted: " + std::to_string(cases.size()) + " of 3 cases recorded"))
+      << r.output;
+}
+
 }  // namespace
 }  // namespace graybox::bench

@@ -60,10 +60,11 @@ struct RunResult {
   std::string output;
 };
 
-/// Runs `graybox <arguments>` (arguments already shell-quoted where needed) from `cwd`.
+/// Runs `graybox <arguments>` (arguments already shell-quoted where needed) from `cwd`, after
+/// `prefix` (a wrapper such as "timeout -s INT 2 ").
 inline RunResult RunGraybox(const std::string& arguments, const std::string& log_path,
-                            const std::string& cwd = "") {
-  const std::string command = (cwd.empty() ? "" : "cd '" + cwd + "' && ") + "'" +
+                            const std::string& cwd = "", const std::string& prefix = "") {
+  const std::string command = (cwd.empty() ? "" : "cd '" + cwd + "' && ") + prefix + "'" +
                               GRAYBOX_EXECUTABLE + "' " + arguments + " > '" + log_path + "' 2>&1";
   const int status = std::system(command.c_str());
   RunResult r;

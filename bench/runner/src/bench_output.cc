@@ -40,6 +40,7 @@ json RecordObject(const CaseRecord& r) {
   j["exit_code"] = r.exit_code;
   j["error"] = r.error;
   j["seconds"] = Number(r.seconds);
+  j["case_seconds"] = Number(r.case_seconds);
   j["method"] = r.method;
   j["solver"] = r.solver;
   j["solver_status"] = r.solver_status;
@@ -119,6 +120,7 @@ CaseRecord ParseCaseRecordJson(const std::string& text) {
     r.exit_code = j.at("exit_code").get<int>();
     r.error = j.at("error").get<std::string>();
     r.seconds = NumberOf(j, "seconds");
+    r.case_seconds = NumberOf(j, "case_seconds");
     r.method = j.at("method").get<std::string>();
     r.solver = j.at("solver").get<std::string>();
     r.solver_status = j.at("solver_status").get<std::string>();
@@ -159,15 +161,16 @@ std::string BenchJson(const Suite& suite, const std::vector<CaseRecord>& records
 
 std::string BenchCsv(const std::vector<CaseRecord>& records) {
   std::ostringstream o;
-  o << "suite,case,problem,variation,seed,status,exit_code,seconds,iterations,cost,split,role,"
-       "channel,nrmse,fit_percent,r2\n";
+  o << "suite,case,problem,variation,seed,status,exit_code,seconds,case_seconds,iterations,cost,"
+       "split,role,channel,nrmse,fit_percent,r2\n";
   for (const CaseRecord& r : records) {
     std::string variation;
     for (const std::string& v : r.variation) variation += (variation.empty() ? "" : "; ") + v;
     const std::string head = Csv(r.suite) + "," + Csv(r.id) + "," + Csv(r.problem) + "," +
                              Csv(variation) + "," + std::to_string(r.seed) + "," + r.status + "," +
                              std::to_string(r.exit_code) + "," + G(r.seconds) + "," +
-                             std::to_string(r.iterations) + "," + G(r.cost) + ",";
+                             G(r.case_seconds) + "," + std::to_string(r.iterations) + "," +
+                             G(r.cost) + ",";
     if (r.metrics.empty()) o << head << ",,,,,\n";
     for (const ChannelRecord& m : r.metrics) {
       o << head << Csv(m.split) << "," << m.role << "," << Csv(m.channel) << "," << G(m.nrmse)

@@ -199,6 +199,7 @@ std::vector<Case> ExpandCases(const Suite& suite) {
         c.problem = problem;
         c.problem_name = name;
         c.seed = seed;
+        c.seeded = seeded;
         c.relative_perturbation = suite.relative_perturbation;
         c.id = name;
         std::string parts;

@@ -53,10 +53,12 @@ struct CaseRecord {
   std::string problem_name;            // [problem] name
   std::vector<std::string> variation;  // "key = value" per override
   unsigned seed = 1;
-  std::string status;    // see the file comment
-  int exit_code = 0;     // of the case's process (RunSuite); 0 in RunCase
-  std::string error;     // why, for error / crashed / timed_out / failed
-  double seconds = 0.0;  // wall time of the case (its process, for RunSuite)
+  std::string status;         // see the file comment
+  int exit_code = 0;          // of the case's process (RunSuite); 0 in RunCase
+  std::string error;          // why, for error / crashed / timed_out / failed
+  double seconds = 0.0;       // wall time of the case's process (RunSuite); RunCase: case_seconds
+  double case_seconds = 0.0;  // wall time of RunCase (problem, data, fit); seconds - case_seconds
+                              // is the runner's overhead (process start, suite, record)
   std::string method, solver, solver_status;
   int iterations = 0;
   double cost = 0.0;

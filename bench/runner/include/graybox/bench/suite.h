@@ -60,6 +60,9 @@ struct Case {
   std::string problem_name;
   std::vector<estimators::ProblemOverride> overrides;
   unsigned seed = 1;
+  /// The suite states a perturbation or more than one seed: `seed` is the fit's seed
+  /// (EstimationSpec::seed); otherwise the problem file's own seed stays.
+  bool seeded = false;
   double relative_perturbation = 0.0;
 };
 

@@ -7,7 +7,11 @@
 //   graybox diagnose PROBLEM --out DIR [--max-effects N] [--refit-top N] [--threads N]
 //                    [--effects a,b,...]
 //   graybox bench SUITE --out DIR [--jobs N] [--shard K/N] [--filter GLOB]
+//   graybox bench SUITE --resume DIR [--out DIR2] [...]
 //   graybox bench case SUITE --case ID --record FILE
+//   graybox bench merge DIR1 DIR2 ... --out DIR
+//   graybox bench baseline DIR --out FILE
+//   graybox bench compare DIR --baseline FILE [--suite SUITE]
 //   graybox bench withheld --out DIR [--fast] [--cases s1,s2] [--max-effects N] [--refit-top N]
 //                          [--threads N] [--effects a,b,...]
 //
@@ -124,7 +128,7 @@ int main(int argc, char** argv) {
                          "a block option key=value (numbers: key=1 or key=1,2; else a word); "
                          "repeatable");
 
-  CommandOptions bench, bench_case;
+  CommandOptions bench, bench_case, merge, baseline, compare;
   CLI::App* bench_cmd = app.add_subcommand(
       "bench",
       "run a suite of problems and variations, each case in its own process (docs/bench.md): "
@@ -138,6 +142,34 @@ int main(int argc, char** argv) {
                         "run the K-th of N parts of the cases, K/N (balanced, deterministic)");
   bench_cmd->add_option("--filter", bench.filter,
                         "only the cases whose id matches this glob ('*': any characters)");
+  bench_cmd->add_option("--resume", bench.resume,
+                        "an earlier output folder of this suite (same --shard and --filter): "
+                        "its recorded cases are kept, the rest run (--out defaults to it)");
+  CLI::App* merge_cmd = bench_cmd->add_subcommand(
+      "merge",
+      "join shard outputs (--shard K/N runs) into one: every shard once, records in the "
+      "suite's order");
+  merge_cmd->add_option("dirs", merge.inputs, "the shards' output folders")->required();
+  merge_cmd->add_option("--out,-o", merge.out, "output directory (bench.json)")->required();
+  CLI::App* baseline_cmd = bench_cmd->add_subcommand(
+      "baseline",
+      "write a run's results as the baseline file that bench compare reads (the one "
+      "command that regenerates a baseline)");
+  baseline_cmd->add_option("dir", baseline.inputs, "the run's output folder")
+      ->required()
+      ->expected(1);
+  baseline_cmd->add_option("--out,-o", baseline.out, "baseline file (JSON)")->required();
+  CLI::App* compare_cmd = bench_cmd->add_subcommand(
+      "compare",
+      "compare a run with a baseline within the suite's tolerances: every value "
+      "outside them, new failures, missing cases, time regressions; exit 4 on any");
+  compare_cmd->add_option("dir", compare.inputs, "the run's output folder (or bench.json)")
+      ->required()
+      ->expected(1);
+  compare_cmd->add_option("--baseline", compare.baseline, "baseline file")->required();
+  compare_cmd->add_option("--suite", compare.suite,
+                          "read the tolerances from this suite file (default: the suite as the "
+                          "run read it)");
   CLI::App* case_cmd = bench_cmd->add_subcommand(
       "case", "run one case of a suite in this process and write its record (what bench runs)");
   case_cmd->add_option("suite", bench_case.suite, "suite file or folder")->required();
@@ -181,10 +213,15 @@ int main(int argc, char** argv) {
   if (diagnose_cmd->parsed()) return graybox::app::RunDiagnose(diagnose);
   if (withheld_cmd->parsed()) return graybox::app::RunBenchWithheld(withheld);
   if (case_cmd->parsed()) return graybox::app::RunBenchCase(bench_case);
+  merge.command_line = command_line;
+  if (merge_cmd->parsed()) return graybox::app::RunBenchMerge(merge);
+  if (baseline_cmd->parsed()) return graybox::app::RunBenchBaseline(baseline);
+  if (compare_cmd->parsed()) return graybox::app::RunBenchCompare(compare);
   if (bench_cmd->parsed()) {
+    if (bench.out.empty()) bench.out = bench.resume;
     if (bench.suite.empty() || bench.out.empty()) {
       std::cerr << "graybox: error: bench: expected a suite and --out DIR (graybox bench SUITE "
-                   "--out DIR), or a subcommand (withheld, case)\n";
+                   "--out DIR), or a subcommand (merge, baseline, compare, withheld, case)\n";
       return graybox::app::kExitBadInput;
     }
     bench.command_line = command_line;

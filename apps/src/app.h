@@ -8,10 +8,15 @@
 //      message names the file, the field or line, and what was expected; nothing is written
 //   3  the solver failed (or the simulation diverged); result.json is still written and its
 //      "status" says why
+//   4  graybox bench compare: a regression against the baseline
+//   130  graybox bench stopped by Ctrl-C (what was done is written)
 #pragma once
 
+#include <chrono>
+#include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,6 +30,9 @@ inline constexpr int kExitSuccess = 0;
 inline constexpr int kExitInternalError = 1;
 inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitSolverFailure = 3;
+/// `graybox bench compare`: a value outside its tolerance, a new failure, a missing case or a time
+/// regression against the baseline.
+inline constexpr int kExitRegression = 4;
 /// `graybox bench` stopped by Ctrl-C (128 + SIGINT, as shells report it): what was done is written.
 inline constexpr int kExitInterrupted = 130;
 
@@ -48,12 +56,15 @@ struct CommandOptions {
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters
   // bench SUITE and bench case.
-  std::string suite;    // suite file or folder
-  int jobs = 1;         // cases at a time
-  std::string shard;    // "K/N" or empty
-  std::string filter;   // glob over case ids
-  std::string case_id;  // bench case: the case to run
-  std::string record;   // bench case: where its record goes
+  std::string suite;                // suite file or folder
+  int jobs = 1;                     // cases at a time
+  std::string shard;                // "K/N" or empty
+  std::string filter;               // glob over case ids
+  std::string case_id;              // bench case: the case to run
+  std::string record;               // bench case: where its record goes
+  std::string resume;               // bench SUITE --resume: an earlier output folder of this suite
+  std::vector<std::string> inputs;  // bench merge: shard outputs; baseline/compare: the run
+  std::string baseline;             // bench compare: the baseline file
   // blocks only.
   std::string block_type;                  // empty: list every type
   std::vector<std::string> block_options;  // "key=value" ("key=1,2" numbers, else a word)
@@ -71,6 +82,12 @@ int RunBenchWithheld(const CommandOptions& options);
 int RunBench(const CommandOptions& options);
 /// One case of a suite in this process (what RunBench starts per case): writes its record.
 int RunBenchCase(const CommandOptions& options);
+/// Shard outputs joined into one (bench::MergeShards), with the cases' records and logs.
+int RunBenchMerge(const CommandOptions& options);
+/// A run's bench.json written as a baseline file (bench::BaselineJson).
+int RunBenchBaseline(const CommandOptions& options);
+/// A run against a baseline (bench::CompareRuns): the findings; exit 4 on a regression.
+int RunBenchCompare(const CommandOptions& options);
 /// Lists the registered block types, or describes one (models::DescribeBlock).
 int RunBlocks(const CommandOptions& options);
 /// Parses the problem and reads its data without solving; prints a summary.
@@ -81,6 +98,30 @@ const char* GitRevision();
 const char* Version();
 
 // ---- pieces shared by the commands -------------------------------------------------------------
+
+/// Wall time since construction.
+class Timer {
+ public:
+  double Seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+/// A line on standard output, through Printable.
+void Progress(const std::string& line);
+/// v with 6 significant digits (%.6g).
+std::string Sci(double v);
+/// Runs `body` and maps exceptions to exit codes: bad input (std::invalid_argument, including
+/// ProblemFileError) -> 2, anything else -> 1; the message on standard error.
+int Guarded(const std::function<int()>& body);
+/// Progress lines stamped with the seconds since `total` started.
+std::function<void(const std::string&)> StampedProgress(const Timer& total,
+                                                        const std::string& indent);
+/// The "run" object of diagnosis.json and bench.json: command line, revision, version.
+std::vector<std::pair<std::string, std::string>> RunMetadata(const CommandOptions& o);
 
 /// Parameter values from a result.json ("parameters": {name: {"value": v}}), a run folder holding
 /// one, or a TOML file of "<instance>.<param>" = value (top level or in [parameters]); names

@@ -13,7 +13,6 @@
 #include <stdexcept>
 
 #include "app.h"
-#include "graybox/bench/runner.h"
 #include "graybox/bench/withheld_bench.h"
 #include "graybox/diagnosis/diagnose.h"
 #include "graybox/diagnosis/report_html.h"
@@ -26,18 +25,6 @@ namespace graybox::app {
 using estimators::Problem;
 using estimators::SplitData;
 
-namespace {
-
-class Timer {
- public:
-  double Seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
-
- private:
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
-
 void Progress(const std::string& line) { std::cout << Printable(line) << std::endl; }
 
 std::string Sci(double v) {
@@ -46,8 +33,6 @@ std::string Sci(double v) {
   return buf;
 }
 
-// Runs `body` and maps exceptions to exit codes: bad input (std::invalid_argument, including
-// ProblemFileError) -> 2, anything else -> 1.
 int Guarded(const std::function<int()>& body) {
   try {
     return body();
@@ -59,6 +44,21 @@ int Guarded(const std::function<int()>& body) {
     return kExitInternalError;
   }
 }
+
+std::function<void(const std::string&)> StampedProgress(const Timer& total,
+                                                        const std::string& indent) {
+  return [&total, indent](const std::string& line) {
+    char stamp[32];
+    std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
+    Progress(indent + stamp + line);
+  };
+}
+
+std::vector<std::pair<std::string, std::string>> RunMetadata(const CommandOptions& o) {
+  return {{"command_line", o.command_line}, {"revision", GitRevision()}, {"version", Version()}};
+}
+
+namespace {
 
 // Runs a stage that formulates and solves `problem`: a std::invalid_argument it raises (estimation
 // data that cannot determine the free parameters, a filter the record cannot take) is reported at
@@ -117,21 +117,6 @@ diagnosis::DiagnoseOptions DiagnoseOptionsFrom(const CommandOptions& o) {
   options.fit_reference = !o.no_reference;
   options.screening.refit_max_seconds = o.refit_seconds;
   return options;
-}
-
-// Progress lines stamped with the seconds since `total` started.
-std::function<void(const std::string&)> StampedProgress(const Timer& total,
-                                                        const std::string& indent) {
-  return [&total, indent](const std::string& line) {
-    char stamp[32];
-    std::snprintf(stamp, sizeof stamp, "[%7.1f s] ", total.Seconds());
-    Progress(indent + stamp + line);
-  };
-}
-
-// The "run" object of diagnosis.json and bench.json.
-std::vector<std::pair<std::string, std::string>> RunMetadata(const CommandOptions& o) {
-  return {{"command_line", o.command_line}, {"revision", GitRevision()}, {"version", Version()}};
 }
 
 }  // namespace
@@ -307,116 +292,6 @@ int RunBenchWithheld(const CommandOptions& o) {
                         bench::WithheldBenchJson(b, RunMetadata(o)));
     Progress("wrote bench.json and the cases' diagnoses: " + out.Commit());
     return kExitSuccess;
-  });
-}
-
-namespace {
-
-// This program's own path (the bench runner starts one process of it per case).
-std::string SelfExecutable() {
-  std::error_code ec;
-  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (ec) throw std::runtime_error("cannot find this program's path (/proc/self/exe)");
-  return self.string();
-}
-
-// Set by SIGINT while `graybox bench` runs its cases.
-volatile std::sig_atomic_t bench_interrupted = 0;
-void OnBenchInterrupt(int) { bench_interrupted = 1; }
-
-// --shard K/N: the 1-based shard and the number of shards.
-std::pair<int, int> ParseShard(const std::string& text) {
-  int k = 0, n = 0;
-  char tail = 0;
-  if (std::sscanf(text.c_str(), "%d/%d%c", &k, &n, &tail) != 2 || n < 1 || k < 1 || k > n) {
-    throw std::invalid_argument("--shard: expected K/N with 1 <= K <= N (e.g. 2/4), got '" + text +
-                                "'");
-  }
-  return {k, n};
-}
-
-}  // namespace
-
-int RunBench(const CommandOptions& o) {
-  return Guarded([&]() -> int {
-    const Timer total;
-    const bench::Suite suite = bench::LoadSuite(o.suite);
-    const std::vector<bench::Case> all = bench::ExpandCases(suite);
-    std::vector<bench::Case> cases = bench::FilterCases(all, o.filter);
-    if (cases.empty()) {
-      throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite + "): no case of " +
-                                  std::to_string(all.size()) + " matches --filter '" + o.filter +
-                                  "'");
-    }
-    std::string shard_text;
-    if (!o.shard.empty()) {
-      const auto [k, n] = ParseShard(o.shard);
-      cases = bench::SelectShard(cases, k, n);
-      shard_text = ", shard " + o.shard;
-    }
-    RunOutput out(o.out);
-    Progress("graybox bench: suite '" + suite.name + "' (" + o.suite +
-             "): " + std::to_string(cases.size()) + " of " + std::to_string(all.size()) + " cases" +
-             shard_text + ", " + std::to_string(o.jobs) + " at a time");
-    bench::RunOptions options;
-    options.jobs = o.jobs;
-    options.case_command = {SelfExecutable(), "bench", "case", o.suite};
-    options.work_dir = out.path();
-    options.progress = StampedProgress(total, "  ");
-    // Ctrl-C: the running cases are stopped and recorded as interrupted, what is done is written
-    // (the cases run in their own process groups, so the signal reaches this process only).
-    options.interrupted = []() { return bench_interrupted != 0; };
-    bench_interrupted = 0;
-    struct sigaction action = {}, previous = {};
-    action.sa_handler = OnBenchInterrupt;
-    sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &previous);
-    std::vector<bench::CaseRecord> records;
-    try {
-      records = bench::RunSuite(suite, cases, options);
-    } catch (...) {
-      sigaction(SIGINT, &previous, nullptr);
-      throw;
-    }
-    sigaction(SIGINT, &previous, nullptr);
-    const bool interrupted = bench_interrupted != 0;
-    const std::string md = bench::BenchMarkdown(suite, records);
-    namespace fs = std::filesystem;
-    WriteFileAtomically((fs::path(out.path()) / "bench.csv").string(), bench::BenchCsv(records));
-    WriteFileAtomically((fs::path(out.path()) / "bench.md").string(), md);
-    std::vector<std::pair<std::string, std::string>> run = RunMetadata(o);
-    run.emplace_back("shard", o.shard);
-    run.emplace_back("filter", o.filter);
-    run.emplace_back("jobs", std::to_string(o.jobs));
-    run.emplace_back("wall_seconds", Sci(total.Seconds()));
-    run.emplace_back("interrupted", interrupted ? "true" : "false");
-    // bench.json last: a reader that finds it finds the other outputs too.
-    WriteFileAtomically((fs::path(out.path()) / "bench.json").string(),
-                        bench::BenchJson(suite, records, run));
-    Progress(md.substr(md.find("## Summary")));
-    Progress("wrote bench.json, bench.csv, bench.md and the cases' records and logs: " +
-             out.Commit() + " (" + Sci(total.Seconds()) + " s)");
-    if (interrupted) {
-      Progress("interrupted: " + std::to_string(records.size()) + " of " +
-               std::to_string(cases.size()) + " cases recorded");
-      return kExitInterrupted;
-    }
-    return kExitSuccess;
-  });
-}
-
-int RunBenchCase(const CommandOptions& o) {
-  return Guarded([&]() -> int {
-    const bench::Suite suite = bench::LoadSuite(o.suite);
-    for (const bench::Case& c : bench::ExpandCases(suite)) {
-      if (c.id != o.case_id) continue;
-      const bench::CaseRecord r = bench::RunCase(suite, c);
-      Progress("case " + c.id + ": " + r.status + (r.error.empty() ? "" : " (" + r.error + ")"));
-      WriteFileAtomically(o.record, bench::CaseRecordJson(r));
-      return kExitSuccess;
-    }
-    throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite + ") has no case '" +
-                                o.case_id + "'");
   });
 }
 

@@ -88,8 +88,11 @@ TEST_F(BenchSuite, ShardsPartitionTheCasesDeterministically) {
     const std::vector<Case> shard = SelectShard(cases, k, 5);
     EXPECT_GE(shard.size(), 2u);  // 12 unit-cost cases over 5 shards: 3, 3, 2, 2, 2
     EXPECT_LE(shard.size(), 3u);
-    for (const Case& c : shard) seen.push_back(c.id);
-    EXPECT_EQ(shard.size(), SelectShard(cases, k, 5).size());
+    std::vector<std::string> ids, again;
+    for (const Case& c : shard) ids.push_back(c.id);
+    for (const Case& c : SelectShard(cases, k, 5)) again.push_back(c.id);
+    EXPECT_EQ(ids, again);  // the same cases on every call
+    seen.insert(seen.end(), ids.begin(), ids.end());
   }
   std::sort(seen.begin(), seen.end());
   EXPECT_EQ(std::unique(seen.begin(), seen.end()), seen.end());  // disjoint
@@ -236,6 +239,23 @@ TEST_F(BenchSuite, AnInterruptedCommandWritesWhatWasDone) {
   EXPECT_TRUE(
       Contains(r.output, "interrupted: " + std::to_string(cases.size()) + " of 3 cases recorded"))
       << r.output;
+  // --resume runs what the interrupt left: the finished cases kept as recorded, the rest run.
+  const std::size_t finished = cases.size() - 1;
+  const apps_testing::RunResult resumed = apps_testing::RunGraybox(
+      "bench s.toml --resume out", Path("log_resume.txt"), dir_.path().string());
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_TRUE(Contains(resumed.output, std::to_string(finished) + " recorded, " +
+                                           std::to_string(3 - finished) + " to run"))
+      << resumed.output;
+  const nlohmann::json k = nlohmann::json::parse(ReadText(Path("out/bench.json")));
+  EXPECT_EQ(k.at("run").at("interrupted").get<std::string>(), "false");
+  ASSERT_EQ(k.at("cases").size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(k.at("cases")[i].at("index").get<std::size_t>(), i);
+    EXPECT_EQ(k.at("cases")[i].at("status").get<std::string>(), "ok");
+    EXPECT_TRUE(std::filesystem::exists(Path("out/cases/" + std::to_string(i) + ".json")));
+  }
+  for (std::size_t i = 0; i < finished; ++i) EXPECT_EQ(k.at("cases")[i], cases[i]);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "graybox/bench/results.h"
 #include "graybox/estimators/fit/fit.h"
 
 extern char** environ;
@@ -66,15 +67,21 @@ std::string Tail(const std::string& text, int lines) {
 
 }  // namespace
 
-CaseRecord RunCase(const Suite& suite, const Case& c) {
-  const auto t0 = Clock::now();
+CaseRecord RecordOf(const Suite& suite, const Case& c) {
   CaseRecord r;
   r.suite = suite.name;
   r.id = c.id;
+  r.index = c.index;
   r.problem = c.problem;
   r.problem_name = c.problem_name;
   r.seed = c.seed;
   for (const est::ProblemOverride& o : c.overrides) r.variation.push_back(o.ToString());
+  return r;
+}
+
+CaseRecord RunCase(const Suite& suite, const Case& c) {
+  const auto t0 = Clock::now();
+  CaseRecord r = RecordOf(suite, c);
   try {
     est::Problem problem = est::LoadProblem(c.problem, c.overrides);
     if (c.seeded) problem.estimation.seed = c.seed;
@@ -154,8 +161,12 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
   std::size_t next = 0, finished = 0, failed = 0;
   double busy_seconds = 0.0;
   const auto t0 = Clock::now();
-  auto record_path = [&](std::size_t i) { return (dir / (std::to_string(i) + ".json")).string(); };
-  auto log_path = [&](std::size_t i) { return (dir / (std::to_string(i) + ".log")).string(); };
+  auto record_path = [&](std::size_t i) {
+    return (dir / (std::to_string(cases[i].index) + ".json")).string();
+  };
+  auto log_path = [&](std::size_t i) {
+    return (dir / (std::to_string(cases[i].index) + ".log")).string();
+  };
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -205,13 +216,7 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
     }
     if (!have_record) {
       const std::string previous = r.error;
-      r = CaseRecord();
-      r.suite = suite.name;
-      r.id = cases[i].id;
-      r.problem = cases[i].problem;
-      r.problem_name = cases[i].problem_name;
-      r.seed = cases[i].seed;
-      for (const auto& o : cases[i].overrides) r.variation.push_back(o.ToString());
+      r = RecordOf(suite, cases[i]);
       if (interrupted) {
         r.status = "interrupted";
         r.error = "stopped by an interrupt after " + Fixed("%.1f", seconds) + " s";
@@ -310,27 +315,6 @@ std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,
     if (shard_of[i] == k - 1) out.push_back(cases[i]);
   }
   return out;
-}
-
-Machine ThisMachine() {
-  Machine m;
-  m.cores = static_cast<int>(std::thread::hardware_concurrency());
-  std::ifstream cpu("/proc/cpuinfo");
-  for (std::string line; std::getline(cpu, line);) {
-    if (line.rfind("model name", 0) == 0) {
-      const std::size_t colon = line.find(':');
-      if (colon != std::string::npos) m.cpu = line.substr(line.find_first_not_of(' ', colon + 1));
-      break;
-    }
-  }
-  std::ifstream os("/etc/os-release");
-  for (std::string line; std::getline(os, line);) {
-    if (line.rfind("PRETTY_NAME=", 0) == 0) {
-      m.os = line.substr(12);
-      if (m.os.size() >= 2 && m.os.front() == '"') m.os = m.os.substr(1, m.os.size() - 2);
-    }
-  }
-  return m;
 }
 
 }  // namespace graybox::bench

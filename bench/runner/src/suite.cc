@@ -2,8 +2,8 @@
 #include "graybox/bench/suite.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -67,26 +67,60 @@ std::string Label(const std::string& value) {
   return value;
 }
 
+// A [tolerances] entry: a table of absolute / relative / digits / compare.
+Tolerance ParseTolerance(const Section& s, const std::string& key) {
+  const std::optional<Section> t = s.Sub(key);
+  if (!t) return {};
+  t->Allow({"absolute", "relative", "digits", "compare"});
+  Tolerance tol;
+  tol.absolute = t->Number("absolute").value_or(0.0);
+  tol.relative = t->Number("relative").value_or(0.0);
+  if (tol.absolute < 0.0) {
+    t->Fail("absolute",
+            "'absolute': expected a number >= 0, got " + est::toml_io::Format(tol.absolute));
+  }
+  if (tol.relative < 0.0) {
+    t->Fail("relative",
+            "'relative': expected a number >= 0, got " + est::toml_io::Format(tol.relative));
+  }
+  if (const std::optional<double> d = t->Number("digits")) {
+    if (t->Has("relative")) t->Fail("digits", "'digits': give either 'digits' or 'relative'");
+    if (!(*d >= 1.0 && *d <= 16.0)) {
+      t->Fail("digits", "'digits': expected a number in [1, 16], got " + est::toml_io::Format(*d));
+    }
+    tol.relative = std::pow(10.0, -*d);
+  }
+  tol.compared = t->Bool("compare").value_or(true);
+  return tol;
+}
+
 }  // namespace
 
+bool Tolerance::Admits(double baseline, double value) const {
+  if (!compared) return true;
+  if (std::isnan(baseline) || std::isnan(value)) return std::isnan(baseline) && std::isnan(value);
+  if (baseline == value) return true;  // equal infinities
+  return std::abs(value - baseline) <= absolute + relative * std::abs(baseline);
+}
+
+std::string Tolerance::ToString() const {
+  if (!compared) return "not compared";
+  std::string s;
+  if (absolute > 0.0 || relative == 0.0) s = "absolute " + est::toml_io::Format(absolute);
+  if (relative > 0.0)
+    s += (s.empty() ? "" : " + ") + std::string("relative ") + est::toml_io::Format(relative);
+  return s;
+}
+
 Suite ParseSuite(const std::string& text, const std::string& path) {
-  toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    SourceLocation where;
-    where.file = path;
-    where.line = static_cast<int>(e.source().begin.line);
-    where.column = static_cast<int>(e.source().begin.column);
-    throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
-  }
+  const toml::table root = est::toml_io::ParseToml(text, path);
   Suite suite;
   suite.path = path;
   suite.name = fs::path(path).stem().string();
   std::string directory = fs::path(path).parent_path().string();
   if (directory.empty()) directory = ".";
   const Section top(path, root, "");
-  top.Allow({"suite", "variations", "perturbation"});
+  top.Allow({"suite", "variations", "perturbation", "tolerances"});
   const std::optional<Section> s = top.Sub("suite");
   if (!s) top.Fail("", "missing table [suite] (with at least 'problems')");
   s->Allow({"name", "description", "problems", "time_limit"});
@@ -145,6 +179,32 @@ Suite ParseSuite(const std::string& text, const std::string& path) {
       }
     }
   }
+  if (const std::optional<Section> t = top.Sub("tolerances")) {
+    t->Allow({"nrmse", "fit_percent", "r2", "cost", "iterations", "parameters", "time"});
+    Tolerances& tol = suite.tolerances;
+    for (const auto& [key, field] :
+         std::vector<std::pair<std::string, Tolerance*>>{{"nrmse", &tol.nrmse},
+                                                         {"fit_percent", &tol.fit_percent},
+                                                         {"r2", &tol.r2},
+                                                         {"cost", &tol.cost},
+                                                         {"iterations", &tol.iterations},
+                                                         {"parameters", &tol.parameters}}) {
+      if (t->Has(key)) *field = ParseTolerance(*t, key);
+    }
+    if (const std::optional<Section> time = t->Sub("time")) {
+      time->Allow({"factor", "min_seconds"});
+      tol.time_factor = time->Number("factor").value_or(tol.time_factor);
+      if (!(tol.time_factor >= 1.0)) {
+        time->Fail("factor", "'factor': expected a number >= 1, got " +
+                                 est::toml_io::Format(tol.time_factor));
+      }
+      tol.time_min_seconds = time->Number("min_seconds").value_or(tol.time_min_seconds);
+      if (!(tol.time_min_seconds >= 0.0)) {
+        time->Fail("min_seconds", "'min_seconds': expected a number >= 0, got " +
+                                      est::toml_io::Format(tol.time_min_seconds));
+      }
+    }
+  }
   return suite;
 }
 
@@ -169,17 +229,7 @@ Suite LoadSuite(const std::string& path) {
     }
     return suite;
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    SourceLocation where;
-    where.file = path;
-    throw ProblemFileError(
-        where, "cannot read the suite file: " +
-                   std::string(fs::exists(path, ec) ? "not a regular file" : "file not found"));
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseSuite(text.str(), path);
+  return ParseSuite(est::toml_io::ReadFileText(path, "suite file"), path);
 }
 
 std::vector<Case> ExpandCases(const Suite& suite) {
@@ -196,6 +246,7 @@ std::vector<Case> ExpandCases(const Suite& suite) {
     for (bool more = true; more;) {
       for (const unsigned seed : suite.seeds) {
         Case c;
+        c.index = cases.size();
         c.problem = problem;
         c.problem_name = name;
         c.seed = seed;

@@ -375,16 +375,7 @@ Problem ParseProblem(const std::string& text, const std::string& path,
   problem.path = path;
   problem.directory = fs::path(path).parent_path().string();
   if (problem.directory.empty()) problem.directory = ".";
-  toml::table root;
-  try {
-    root = toml::parse(text, path);
-  } catch (const toml::parse_error& e) {
-    SourceLocation where;
-    where.file = path;
-    where.line = static_cast<int>(e.source().begin.line);
-    where.column = static_cast<int>(e.source().begin.column);
-    throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
-  }
+  toml::table root = toml_io::ParseToml(text, path);
   internal::ApplyOverrides(overrides, &root);
   if (!overrides.empty()) {
     // The sections are read below as in a file that said so; a defect the overrides cause is
@@ -402,18 +393,7 @@ Problem ParseProblem(const std::string& text, const std::string& path,
 Problem LoadProblem(const std::string& path) { return LoadProblem(path, {}); }
 
 Problem LoadProblem(const std::string& path, const std::vector<ProblemOverride>& overrides) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    SourceLocation where;
-    where.file = path;
-    throw ProblemFileError(where, "cannot read the problem file: " +
-                                      std::string(fs::exists(path) ? "permission denied or not a "
-                                                                     "regular file"
-                                                                   : "file not found"));
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseProblem(text.str(), path, overrides);
+  return ParseProblem(toml_io::ReadFileText(path, "problem file"), path, overrides);
 }
 
 }  // namespace graybox::estimators

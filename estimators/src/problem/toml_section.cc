@@ -2,12 +2,43 @@
 #include "graybox/estimators/problem/toml_section.h"
 
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "graybox/util/did_you_mean.h"
 
 namespace graybox::estimators::toml_io {
+
+toml::table ParseToml(const std::string& text, const std::string& path) {
+  try {
+    return toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    SourceLocation where;
+    where.file = path;
+    where.line = static_cast<int>(e.source().begin.line);
+    where.column = static_cast<int>(e.source().begin.column);
+    throw ProblemFileError(where, "TOML syntax error: " + std::string(e.description()));
+  }
+}
+
+std::string ReadFileText(const std::string& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  if (!in || std::filesystem::is_directory(path, ec)) {
+    SourceLocation where;
+    where.file = path;
+    throw ProblemFileError(where, "cannot read the " + what + ": " +
+                                      std::string(std::filesystem::exists(path, ec)
+                                                      ? "permission denied or not a regular file"
+                                                      : "file not found"));
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 std::string Format(double v) {
   char buf[64];

@@ -12,6 +12,8 @@
 //               (SIGKILL) and "timed_out"; the run goes on. Each case in its own process because
 //               Ipopt 3.11 with sequential MUMPS is not known to be thread-safe, and so that a
 //               crash or a runaway solve takes only its case.
+//   Records     RecordOf: a record's identity (suite, id, index, problem, variation, seed)
+//               before the case runs.
 //   Shards      SelectShard: the k-th of n parts of the cases, balanced by estimated cost
 //               (greedy longest-first over RunOptions::cost_of, default 1 per case), deterministic.
 //
@@ -20,8 +22,8 @@
 // message in `error`), "crashed", "timed_out", "interrupted" (RunOptions::interrupted).
 #pragma once
 
+#include <cstddef>
 #include <functional>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -49,6 +51,7 @@ struct ParameterRecord {
 struct CaseRecord {
   std::string suite;
   std::string id;
+  std::size_t index = 0;               // Case::index: the case's place in the suite
   std::string problem;                 // the problem file
   std::string problem_name;            // [problem] name
   std::vector<std::string> variation;  // "key = value" per override
@@ -66,6 +69,9 @@ struct CaseRecord {
   std::vector<ChannelRecord> metrics;
 };
 
+/// A record with the case's identity and nothing else.
+CaseRecord RecordOf(const Suite& suite, const Case& c);
+
 /// The case in this process (file comment).
 CaseRecord RunCase(const Suite& suite, const Case& c);
 
@@ -75,7 +81,7 @@ struct RunOptions {
   /// The command that runs one case and writes its record (argv, without "--case ID --record
   /// FILE"); `graybox bench` passes {itself, "bench", "case", SUITE}.
   std::vector<std::string> case_command;
-  /// Folder for the cases' records and logs (DIR/cases/<n>.json, <n>.log); must exist.
+  /// Folder for the cases' records and logs (DIR/cases/<index>.json, .log); must exist.
   std::string work_dir;
   /// Extra seconds past the suite's time_limit before a case's process is killed (the case's
   /// solve stops itself at time_limit and writes its record; this covers what follows it).
@@ -99,28 +105,5 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
 /// the cases' order. Throws std::invalid_argument unless 1 <= k <= n.
 std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,
                               const std::function<double(const Case&)>& cost_of = {});
-
-/// The record as JSON, and back (throws std::invalid_argument naming the field on a malformed
-/// record).
-std::string CaseRecordJson(const CaseRecord& r);
-CaseRecord ParseCaseRecordJson(const std::string& json);
-
-/// "AMD EPYC 7B13 (2 cores), Debian GNU/Linux 12 (bookworm)": the CPU model of /proc/cpuinfo,
-/// the hardware threads, the OS's PRETTY_NAME.
-struct Machine {
-  std::string cpu;
-  int cores = 0;
-  std::string os;
-};
-Machine ThisMachine();
-
-/// DIR/bench.json: {"schema", "suite", "run": {metadata...}, "machine", "cases": [records]}.
-std::string BenchJson(const Suite& suite, const std::vector<CaseRecord>& records,
-                      const std::vector<std::pair<std::string, std::string>>& run);
-/// DIR/bench.csv: one row per case, split and channel (a case without metrics: one row).
-std::string BenchCsv(const std::vector<CaseRecord>& records);
-/// DIR/bench.md: one row per case, and the suite's summary (cases, success rate, total and
-/// slowest cases).
-std::string BenchMarkdown(const Suite& suite, const std::vector<CaseRecord>& records);
 
 }  // namespace graybox::bench

@@ -18,6 +18,12 @@
 //   relative = 0.1                 #   value * (1 + relative * z), z ~ N(0, 1) from the seed,
 //   seeds = [1, 2, 3]              #   clamped to the bounds; one case per seed (default [1])
 //
+//   [tolerances]                   # how far `graybox bench compare` lets a value move from
+//   nrmse = { relative = 1e-3 }    # its baseline (compare.h): |value - baseline| <= absolute +
+//   iterations = { absolute = 5, relative = 0.5 }    # relative |baseline|; digits = d is
+//   parameters = { digits = 2 }    # relative = 10^-d; compare = false skips the metric;
+//   time = { factor = 3, min_seconds = 1 }           # a metric not named keeps its default
+//
 // Cases: problems x variations (in key order, values in file order) x seeds, in that order. A
 // case's id is "<problem>/<key>=<value>,.../seed=<s>" (the parts that apply: no variation part
 // without variations, no seed part with a single seed and no perturbation; a string value
@@ -35,6 +41,34 @@
 
 namespace graybox::bench {
 
+/// How far a value may move from its baseline and still agree: |value - baseline| <= absolute +
+/// relative * |baseline| (two NaNs agree; a NaN and a number do not). `compared = false` skips
+/// the metric.
+struct Tolerance {
+  double absolute = 0.0;
+  double relative = 0.0;
+  bool compared = true;
+  bool Admits(double baseline, double value) const;
+  /// "absolute 0.1 + relative 0.001", or "not compared".
+  std::string ToString() const;
+};
+
+/// The tolerances of `graybox bench compare`, per metric: the suite's [tolerances] (defaults
+/// here, documented in docs/bench.md). Metrics are compared per split and channel, parameters
+/// by name (free ones only), iterations and cost per case.
+struct Tolerances {
+  Tolerance nrmse{1e-6, 1e-3};        // NRMSE = RMSE / std of the measured channel
+  Tolerance fit_percent{0.1, 0.0};    // FIT % (absolute percentage points)
+  Tolerance r2{1e-3, 0.0};            // R^2
+  Tolerance cost{1e-12, 1e-3};        // the solver's final objective
+  Tolerance iterations{5.0, 0.5};     // solver iterations: a band, not an exact count
+  Tolerance parameters{1e-12, 1e-2};  // free parameters' values
+  /// A time regression: the case's seconds exceed time_factor x the baseline's and by more
+  /// than time_min_seconds (short cases are noise-bound).
+  double time_factor = 3.0;
+  double time_min_seconds = 1.0;
+};
+
 /// One key and the values it takes over the suite's cases.
 struct Variation {
   std::string key;                  // dotted problem-file key (estimators::ProblemOverride)
@@ -51,11 +85,15 @@ struct Suite {
   double relative_perturbation = 0.0;
   std::vector<unsigned> seeds = {1};
   double time_limit = 1800.0;  // [s] per case
+  Tolerances tolerances;
 };
 
 /// One run: a problem with one value of every variation and one seed.
 struct Case {
   std::string id;
+  /// The case's place in ExpandCases (0-based), kept through filters and shards: its records
+  /// and logs are cases/<index>.json and .log, and merged shards are ordered by it.
+  std::size_t index = 0;
   std::string problem;  // path of the problem file
   std::string problem_name;
   std::vector<estimators::ProblemOverride> overrides;
@@ -66,7 +104,8 @@ struct Case {
   double relative_perturbation = 0.0;
 };
 
-/// Reads a suite file, or a folder of problem files. Throws estimators::ProblemFileError.
+/// Reads a suite file, or a folder of problem files (default tolerances). Throws
+/// estimators::ProblemFileError.
 Suite LoadSuite(const std::string& path);
 /// A suite from text; `path` names it in messages and anchors relative problem paths.
 Suite ParseSuite(const std::string& text, const std::string& path);

@@ -32,6 +32,13 @@ std::string ValueText(const toml::node& n);
 /// '*' matches any run of characters (possibly empty); every other character matches itself.
 bool GlobMatch(const std::string& pattern, const std::string& text);
 
+/// The TOML document `text`; `path` names it in messages. A syntax error throws
+/// ProblemFileError at its line and column ("TOML syntax error: ...").
+toml::table ParseToml(const std::string& text, const std::string& path);
+/// The bytes of the file `path`; one that cannot be read throws ProblemFileError naming it:
+/// "cannot read the <what>: file not found" (or "permission denied or not a regular file").
+std::string ReadFileText(const std::string& path, const std::string& what);
+
 // A TOML table being read: typed access with messages that name the file, the table path and the
 // line, and a check that rejects unknown keys with a suggestion.
 class Section {

@@ -1,0 +1,257 @@
+// The batch runner's commands (docs/bench.md): graybox bench SUITE (with --resume), bench case,
+// bench merge, bench baseline, bench compare. Each parses its arguments, calls graybox::runner
+// and writes files; outputs are one unit (RunOutput), bench.json last.
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+#include "app.h"
+#include "graybox/bench/compare.h"
+#include "graybox/bench/results.h"
+#include "graybox/bench/runner.h"
+
+namespace graybox::app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// This program's own path (the bench runner starts one process of it per case).
+std::string SelfExecutable() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw std::runtime_error("cannot find this program's path (/proc/self/exe)");
+  return self.string();
+}
+
+// Set by SIGINT while `graybox bench` runs its cases.
+volatile std::sig_atomic_t bench_interrupted = 0;
+void OnBenchInterrupt(int) { bench_interrupted = 1; }
+
+// --shard K/N: the 1-based shard and the number of shards.
+std::pair<int, int> ParseShard(const std::string& text) {
+  int k = 0, n = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%d/%d%c", &k, &n, &tail) != 2 || n < 1 || k < 1 || k > n) {
+    throw std::invalid_argument("--shard: expected K/N with 1 <= K <= N (e.g. 2/4), got '" + text +
+                                "'");
+  }
+  return {k, n};
+}
+
+// Copies cases/<index>.json and .log of `records` from the output folder `from` to `to`
+// (missing files are skipped: a case interrupted before it wrote one).
+void CopyCaseFiles(const std::string& from, const std::string& to,
+                   const std::vector<bench::CaseRecord>& records) {
+  fs::create_directories(fs::path(to) / "cases");
+  for (const bench::CaseRecord& r : records) {
+    for (const char* ext : {".json", ".log"}) {
+      const fs::path name = fs::path("cases") / (std::to_string(r.index) + ext);
+      std::error_code ec;
+      if (fs::exists(fs::path(from) / name, ec)) {
+        fs::copy_file(fs::path(from) / name, fs::path(to) / name,
+                      fs::copy_options::overwrite_existing);
+      }
+    }
+  }
+}
+
+// bench.csv, bench.md and, last, bench.json of `run` into the folder `dir`.
+void WriteBenchOutputs(const std::string& dir, const bench::BenchRun& run) {
+  WriteFileAtomically((fs::path(dir) / "bench.csv").string(), bench::BenchCsv(run.records));
+  WriteFileAtomically((fs::path(dir) / "bench.md").string(),
+                      bench::BenchMarkdown(run.suite, run.records));
+  // bench.json last: a reader that finds it finds the other outputs too.
+  WriteFileAtomically((fs::path(dir) / "bench.json").string(), bench::BenchJson(run));
+}
+
+// The records of an earlier output of this suite that --resume keeps: every case recorded with
+// a status other than "interrupted" that is among `cases`. Refused when the output is of another
+// suite, shard or filter.
+std::vector<bench::CaseRecord> ResumedRecords(const CommandOptions& o, const bench::Suite& suite,
+                                              const std::vector<bench::Case>& cases) {
+  const bench::BenchRun earlier = bench::LoadBenchRun(o.resume);
+  if (earlier.suite.name != suite.name || earlier.suite.path != suite.path) {
+    throw std::invalid_argument("--resume " + o.resume + ": a run of suite '" + earlier.suite.name +
+                                "' (" + earlier.suite.path + "), expected '" + suite.name + "' (" +
+                                suite.path + ")");
+  }
+  for (const auto& [key, value] : {std::pair<std::string, std::string>{"shard", o.shard},
+                                   std::pair<std::string, std::string>{"filter", o.filter}}) {
+    if (earlier.Run(key) != value) {
+      throw std::invalid_argument("--resume " + o.resume + ": that run's --" + key + " was '" +
+                                  earlier.Run(key) + "', this one's is '" + value + "'");
+    }
+  }
+  std::set<std::string> ids;
+  for (const bench::Case& c : cases) ids.insert(c.id);
+  std::vector<bench::CaseRecord> kept;
+  for (const bench::CaseRecord& r : earlier.records) {
+    if (r.status != "interrupted" && ids.count(r.id)) kept.push_back(r);
+  }
+  return kept;
+}
+
+}  // namespace
+
+int RunBench(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const Timer total;
+    const bench::Suite suite = bench::LoadSuite(o.suite);
+    const std::vector<bench::Case> all = bench::ExpandCases(suite);
+    std::vector<bench::Case> cases = bench::FilterCases(all, o.filter);
+    if (cases.empty()) {
+      throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite + "): no case of " +
+                                  std::to_string(all.size()) + " matches --filter '" + o.filter +
+                                  "'");
+    }
+    std::string shard_text;
+    if (!o.shard.empty()) {
+      const auto [k, n] = ParseShard(o.shard);
+      cases = bench::SelectShard(cases, k, n);
+      shard_text = ", shard " + o.shard;
+    }
+    const std::size_t planned = cases.size();
+    std::vector<bench::CaseRecord> kept;
+    if (!o.resume.empty()) {
+      kept = ResumedRecords(o, suite, cases);
+      std::set<std::string> done;
+      for (const bench::CaseRecord& r : kept) done.insert(r.id);
+      std::vector<bench::Case> left;
+      for (const bench::Case& c : cases) {
+        if (!done.count(c.id)) left.push_back(c);
+      }
+      cases = std::move(left);
+    }
+    RunOutput out(o.out);
+    Progress("graybox bench: suite '" + suite.name + "' (" + o.suite +
+             "): " + std::to_string(planned) + " of " + std::to_string(all.size()) + " cases" +
+             shard_text + ", " + std::to_string(o.jobs) + " at a time" +
+             (o.resume.empty() ? ""
+                               : "; resuming " + o.resume + ": " + std::to_string(kept.size()) +
+                                     " recorded, " + std::to_string(cases.size()) + " to run"));
+    if (!kept.empty()) CopyCaseFiles(o.resume, out.path(), kept);
+    bench::RunOptions options;
+    options.jobs = o.jobs;
+    options.case_command = {SelfExecutable(), "bench", "case", o.suite};
+    options.work_dir = out.path();
+    options.progress = StampedProgress(total, "  ");
+    // Ctrl-C: the running cases are stopped and recorded as interrupted, what is done is written
+    // (the cases run in their own process groups, so the signal reaches this process only).
+    options.interrupted = []() { return bench_interrupted != 0; };
+    bench_interrupted = 0;
+    struct sigaction action = {}, previous = {};
+    action.sa_handler = OnBenchInterrupt;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &previous);
+    std::vector<bench::CaseRecord> records;
+    try {
+      if (!cases.empty()) records = bench::RunSuite(suite, cases, options);
+    } catch (...) {
+      sigaction(SIGINT, &previous, nullptr);
+      throw;
+    }
+    sigaction(SIGINT, &previous, nullptr);
+    const bool interrupted = bench_interrupted != 0;
+    bench::BenchRun run;
+    run.suite = suite;
+    run.machine = bench::ThisMachine();
+    run.records = std::move(kept);
+    run.records.insert(run.records.end(), records.begin(), records.end());
+    std::stable_sort(
+        run.records.begin(), run.records.end(),
+        [](const bench::CaseRecord& a, const bench::CaseRecord& b) { return a.index < b.index; });
+    run.run = RunMetadata(o);
+    run.SetRun("shard", o.shard);
+    run.SetRun("filter", o.filter);
+    run.SetRun("jobs", std::to_string(o.jobs));
+    run.SetRun("cases_planned", std::to_string(planned));
+    if (!o.resume.empty()) run.SetRun("resumed_from", o.resume);
+    run.SetRun("wall_seconds", Sci(total.Seconds()));
+    run.SetRun("interrupted", interrupted ? "true" : "false");
+    WriteBenchOutputs(out.path(), run);
+    const std::string md = bench::BenchMarkdown(suite, run.records);
+    Progress(md.substr(md.find("## Summary")));
+    Progress("wrote bench.json, bench.csv, bench.md and the cases' records and logs: " +
+             out.Commit() + " (" + Sci(total.Seconds()) + " s)");
+    if (interrupted) {
+      Progress("interrupted: " + std::to_string(run.records.size()) + " of " +
+               std::to_string(planned) + " cases recorded; graybox bench " + o.suite +
+               " --resume " + o.out + " --out " + o.out + " runs the rest");
+      return kExitInterrupted;
+    }
+    return kExitSuccess;
+  });
+}
+
+int RunBenchCase(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const bench::Suite suite = bench::LoadSuite(o.suite);
+    for (const bench::Case& c : bench::ExpandCases(suite)) {
+      if (c.id != o.case_id) continue;
+      const bench::CaseRecord r = bench::RunCase(suite, c);
+      Progress("case " + c.id + ": " + r.status + (r.error.empty() ? "" : " (" + r.error + ")"));
+      WriteFileAtomically(o.record, bench::CaseRecordJson(r));
+      return kExitSuccess;
+    }
+    throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite + ") has no case '" +
+                                o.case_id + "'");
+  });
+}
+
+int RunBenchMerge(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    std::vector<bench::BenchRun> shards;
+    for (const std::string& dir : o.inputs) shards.push_back(bench::LoadBenchRun(dir));
+    bench::BenchRun merged = bench::MergeShards(shards, o.inputs);
+    merged.run.insert(merged.run.begin(), {"command_line", o.command_line});
+    RunOutput out(o.out);
+    for (std::size_t i = 0; i < shards.size(); ++i) {
+      CopyCaseFiles(o.inputs[i], out.path(), shards[i].records);
+    }
+    WriteBenchOutputs(out.path(), merged);
+    Progress("graybox bench merge: " + std::to_string(shards.size()) + " shards of suite '" +
+             merged.suite.name + "', " + std::to_string(merged.records.size()) + " cases" +
+             (merged.Run("interrupted") == "true" ? " (a shard was interrupted)" : "") + ": " +
+             out.Commit());
+    return kExitSuccess;
+  });
+}
+
+int RunBenchBaseline(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const std::string& dir = o.inputs.at(0);
+    const bench::BenchRun run = bench::LoadBenchRun(dir);
+    const fs::path parent = fs::absolute(o.out).parent_path();
+    std::error_code ec;
+    if (!fs::is_directory(parent, ec)) {
+      throw std::invalid_argument("--out " + o.out + ": expected a file in an existing folder, '" +
+                                  parent.string() + "' is not one");
+    }
+    WriteFileAtomically(o.out, bench::BaselineJson(run, dir));
+    Progress("graybox bench baseline: " + std::to_string(run.records.size()) + " cases of suite '" +
+             run.suite.name + "' from " + dir + " written to " + o.out);
+    return kExitSuccess;
+  });
+}
+
+int RunBenchCompare(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    const std::string& dir = o.inputs.at(0);
+    const bench::BenchRun run = bench::LoadBenchRun(dir);
+    const bench::BenchRun baseline = bench::LoadBenchRun(o.baseline);
+    // The tolerances of the suite as the run read it, or read anew from --suite.
+    const bench::Tolerances tolerances =
+        o.suite.empty() ? run.suite.tolerances : bench::LoadSuite(o.suite).tolerances;
+    const bench::Comparison c = bench::CompareRuns(
+        baseline, run, tolerances, "graybox bench baseline " + dir + " --out " + o.baseline);
+    std::cout << Printable(c.FullReport());
+    return c.HasRegression() ? kExitRegression : kExitSuccess;
+  });
+}
+
+}  // namespace graybox::app

@@ -142,6 +142,9 @@ int main(int argc, char** argv) {
                         "run the K-th of N parts of the cases, K/N (balanced, deterministic)");
   bench_cmd->add_option("--filter", bench.filter,
                         "only the cases whose id matches this glob ('*': any characters)");
+  bench_cmd->add_option("--costs", bench.costs,
+                        "balance --shard by the case times of an earlier output or baseline "
+                        "(bench.json); cases it lacks cost its median");
   bench_cmd->add_option("--resume", bench.resume,
                         "an earlier output folder of this suite (same --shard and --filter): "
                         "its recorded cases are kept, the rest run (--out defaults to it)");

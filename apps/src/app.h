@@ -56,13 +56,14 @@ struct CommandOptions {
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters
   // bench SUITE and bench case.
-  std::string suite;                // suite file or folder
-  int jobs = 1;                     // cases at a time
-  std::string shard;                // "K/N" or empty
-  std::string filter;               // glob over case ids
-  std::string case_id;              // bench case: the case to run
-  std::string record;               // bench case: where its record goes
-  std::string resume;               // bench SUITE --resume: an earlier output folder of this suite
+  std::string suite;    // suite file or folder
+  int jobs = 1;         // cases at a time
+  std::string shard;    // "K/N" or empty
+  std::string filter;   // glob over case ids
+  std::string case_id;  // bench case: the case to run
+  std::string record;   // bench case: where its record goes
+  std::string resume;   // bench SUITE --resume: an earlier output folder of this suite
+  std::string costs;    // bench SUITE --costs: a bench output whose times balance shards
   std::vector<std::string> inputs;  // bench merge: shard outputs; baseline/compare: the run
   std::string baseline;             // bench compare: the baseline file
   // blocks only.

@@ -112,8 +112,13 @@ int RunBench(const CommandOptions& o) {
     std::string shard_text;
     if (!o.shard.empty()) {
       const auto [k, n] = ParseShard(o.shard);
-      cases = bench::SelectShard(cases, k, n);
-      shard_text = ", shard " + o.shard;
+      cases =
+          bench::SelectShard(cases, k, n,
+                             o.costs.empty() ? bench::CostFunction()
+                                             : bench::RecordedCosts(bench::LoadBenchRun(o.costs)));
+      shard_text = ", shard " + o.shard + (o.costs.empty() ? "" : " balanced by " + o.costs);
+    } else if (!o.costs.empty()) {
+      throw std::invalid_argument("--costs " + o.costs + ": expected with --shard K/N");
     }
     const std::size_t planned = cases.size();
     std::vector<bench::CaseRecord> kept;
@@ -168,6 +173,7 @@ int RunBench(const CommandOptions& o) {
     run.run = RunMetadata(o);
     run.SetRun("shard", o.shard);
     run.SetRun("filter", o.filter);
+    run.SetRun("costs", o.costs);
     run.SetRun("jobs", std::to_string(o.jobs));
     run.SetRun("cases_planned", std::to_string(planned));
     if (!o.resume.empty()) run.SetRun("resumed_from", o.resume);

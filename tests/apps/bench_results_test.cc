@@ -163,6 +163,24 @@ TEST(BenchResults, ShardsMergeIntoTheWholeRunOrRefuseWhatIsMissing) {
   EXPECT_TRUE(Contains(error({one, three}, {"d1", "d2"}), "one of 2"));
 }
 
+TEST(BenchResults, RecordedTimesBalanceTheShards) {
+  // Four recorded cases (8, 1, 1, 2 s) and one unrecorded (the median, 1.5 s).
+  BenchRun earlier = RunOf({Record("a", 0, 1, 0.1), Record("b", 1, 1, 0.1), Record("c", 2, 1, 0.1),
+                            Record("d", 3, 1, 0.1)});
+  const std::vector<double> seconds = {8.0, 1.0, 1.0, 2.0};
+  for (std::size_t i = 0; i < seconds.size(); ++i) earlier.records[i].seconds = seconds[i];
+  const CostFunction cost = RecordedCosts(earlier);
+  std::vector<Case> cases(5);
+  for (std::size_t i = 0; i < cases.size(); ++i) cases[i].id = std::string(1, char('a' + i));
+  EXPECT_EQ(cost(cases[0]), 8.0);
+  EXPECT_EQ(cost(cases[4]), 1.5);
+  // Longest first to the lightest shard: a (8) alone; d, e, b, c (5.5 s) in the other.
+  const std::vector<Case> one = SelectShard(cases, 1, 2, cost);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].id, "a");
+  EXPECT_EQ(SelectShard(cases, 2, 2, cost).size(), 4u);
+}
+
 TEST(BenchCompare, EveryValueOutsideItsToleranceIsAFinding) {
   const Tolerances t;
   const BenchRun base = RunOf({Record("a", 0, 95.0, 0.100), Record("b", 1, 95.0, 0.100),

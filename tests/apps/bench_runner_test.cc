@@ -77,6 +77,18 @@ TEST_F(BenchSuite, VariationsAndSeedsMakeOneCaseEachWithAnId) {
   EXPECT_EQ(cases[2].overrides[1].value, "'ceres'");  // TOML text, as the override takes it
   EXPECT_EQ(FilterCases(cases, "*ceres*seed=2").size(), 2u);
   EXPECT_TRUE(FilterCases(cases, "nothing*").empty());
+  for (std::size_t i = 0; i < cases.size(); ++i) EXPECT_EQ(cases[i].index, i);
+  // Excluded combinations are not cases; the others keep consecutive places.
+  const std::string head = kTwoByTwo;
+  const std::string with_exclude = head.substr(0, head.find("time_limit")) +
+                                   "exclude = [\"*=10,estimation.solver=ceres\"]\n" +
+                                   head.substr(head.find("time_limit"));
+  const std::vector<Case> kept = ExpandCases(ParseSuite(with_exclude, Path("s.toml")));
+  ASSERT_EQ(kept.size(), 3u);
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    EXPECT_EQ(kept[i].index, i);
+    EXPECT_FALSE(Contains(kept[i].id, "=10,estimation.solver=ceres")) << kept[i].id;
+  }
 }
 
 TEST_F(BenchSuite, ShardsPartitionTheCasesDeterministically) {
@@ -118,6 +130,14 @@ TEST_F(BenchSuite, DefectsAreLocated) {
   e = ErrorOf("[suite]\nproblems = [\"pushed.toml\"]\n[perturbation]\nseeds = [-1]\n",
               Path("s.toml"));
   EXPECT_TRUE(Contains(e, "s.toml:4:")) << e;
+  // An exclude glob that matches no case is a mistake, not a no-op.
+  try {
+    ExpandCases(ParseSuite("[suite]\nproblems = [\"pushed.toml\"]\nexclude = [\"pushd*\"]\n",
+                           Path("s.toml")));
+    ADD_FAILURE() << "expected a ProblemFileError";
+  } catch (const est::ProblemFileError& x) {
+    EXPECT_TRUE(Contains(x.what(), "'exclude': 'pushd*' matches no case")) << x.what();
+  }
   e = ErrorOf("[variations]\n", Path("s.toml"));
   EXPECT_TRUE(Contains(e, "missing table [suite]")) << e;
   // A file named twice is one problem.

@@ -287,6 +287,26 @@ BenchRun LoadBenchRun(const std::string& path) {
   return ParseBenchJson(text.str(), file);
 }
 
+CostFunction RecordedCosts(const BenchRun& run) {
+  std::map<std::string, double> seconds;
+  std::vector<double> all;
+  for (const CaseRecord& r : run.records) {
+    if (!std::isfinite(r.seconds)) continue;
+    seconds[r.id] = r.seconds;
+    all.push_back(r.seconds);
+  }
+  double median = 1.0;
+  if (!all.empty()) {
+    std::sort(all.begin(), all.end());
+    median = all.size() % 2 ? all[all.size() / 2]
+                            : 0.5 * (all[all.size() / 2 - 1] + all[all.size() / 2]);
+  }
+  return [seconds = std::move(seconds), median](const Case& c) {
+    const auto it = seconds.find(c.id);
+    return it == seconds.end() ? median : it->second;
+  };
+}
+
 BenchRun MergeShards(const std::vector<BenchRun>& shards, const std::vector<std::string>& names) {
   if (shards.empty()) throw std::invalid_argument("bench merge: expected shard outputs, got none");
   if (names.size() != shards.size()) {

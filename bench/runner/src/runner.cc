@@ -290,7 +290,7 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
 }
 
 std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,
-                              const std::function<double(const Case&)>& cost_of) {
+                              const CostFunction& cost_of) {
   if (n < 1 || k < 1 || k > n) {
     throw std::invalid_argument("SelectShard: expected 1 <= k <= n, got k = " + std::to_string(k) +
                                 ", n = " + std::to_string(n));

@@ -123,10 +123,11 @@ Suite ParseSuite(const std::string& text, const std::string& path) {
   top.Allow({"suite", "variations", "perturbation", "tolerances"});
   const std::optional<Section> s = top.Sub("suite");
   if (!s) top.Fail("", "missing table [suite] (with at least 'problems')");
-  s->Allow({"name", "description", "problems", "time_limit"});
+  s->Allow({"name", "description", "problems", "time_limit", "exclude"});
   suite.name = s->String("name").value_or(suite.name);
   suite.description = s->String("description").value_or("");
   suite.time_limit = s->PositiveNumber("time_limit").value_or(suite.time_limit);
+  suite.exclude = s->Strings("exclude");
   const std::vector<std::string> entries = s->Strings("problems");
   if (entries.empty()) s->Fail("problems", "'problems': expected at least one problem file");
   for (const std::string& e : entries) {
@@ -238,6 +239,7 @@ std::vector<Case> ExpandCases(const Suite& suite) {
   std::map<std::string, int> stems;
   for (const std::string& p : suite.problems) ++stems[fs::path(p).stem().string()];
   const bool seeded = suite.relative_perturbation > 0.0 || suite.seeds.size() > 1;
+  std::vector<bool> used(suite.exclude.size(), false);
   for (const std::string& problem : suite.problems) {
     std::string name = fs::path(problem).stem().string();
     if (stems[name] > 1) name = fs::path(problem).parent_path().filename().string() + "/" + name;
@@ -246,7 +248,6 @@ std::vector<Case> ExpandCases(const Suite& suite) {
     for (bool more = true; more;) {
       for (const unsigned seed : suite.seeds) {
         Case c;
-        c.index = cases.size();
         c.problem = problem;
         c.problem_name = name;
         c.seed = seed;
@@ -265,6 +266,12 @@ std::vector<Case> ExpandCases(const Suite& suite) {
         }
         if (!parts.empty()) c.id += "/" + parts;
         if (seeded) c.id += "/seed=" + std::to_string(seed);
+        bool excluded = false;
+        for (std::size_t e = 0; e < suite.exclude.size(); ++e) {
+          if (est::toml_io::GlobMatch(suite.exclude[e], c.id)) excluded = used[e] = true;
+        }
+        if (excluded) continue;
+        c.index = cases.size();
         cases.push_back(std::move(c));
       }
       more = false;
@@ -275,6 +282,16 @@ std::vector<Case> ExpandCases(const Suite& suite) {
         }
         at[i] = 0;
       }
+    }
+  }
+  for (std::size_t e = 0; e < suite.exclude.size(); ++e) {
+    if (!used[e]) {
+      SourceLocation where;
+      where.file = suite.path;
+      where.table = "suite";
+      throw ProblemFileError(where, "'exclude': '" + suite.exclude[e] +
+                                        "' matches no case (a case id is "
+                                        "<problem>/<key>=<value>,.../seed=<s>)");
     }
   }
   std::set<std::string> ids;

@@ -64,6 +64,11 @@ std::string BenchCsv(const std::vector<CaseRecord>& records);
 /// slowest cases).
 std::string BenchMarkdown(const Suite& suite, const std::vector<CaseRecord>& records);
 
+/// Costs for SelectShard from an earlier run or a baseline: a case's recorded `seconds` (by id);
+/// a case it lacks, or one without a finite time, costs the median of the recorded times (1 when
+/// none is).
+CostFunction RecordedCosts(const BenchRun& run);
+
 /// Shard outputs (`--shard K/N` runs; `names` label them in messages) joined into the run the
 /// whole suite would have given: the records of every shard ordered by case index. Refused
 /// (std::invalid_argument) when the runs are of different suites, filters or shard counts,

@@ -100,10 +100,13 @@ struct RunOptions {
 std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& cases,
                                  const RunOptions& options);
 
+/// A case's estimated cost for SelectShard.
+using CostFunction = std::function<double(const Case&)>;
+
 /// The k-th (1-based) of n shards of `cases`: cases are dealt longest-first (by `cost_of`, 1 per
 /// case when empty) to the currently lightest shard, ties to the lower shard; the result keeps
 /// the cases' order. Throws std::invalid_argument unless 1 <= k <= n.
 std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,
-                              const std::function<double(const Case&)>& cost_of = {});
+                              const CostFunction& cost_of = {});
 
 }  // namespace graybox::bench

@@ -9,6 +9,7 @@
 //                                  # relative to the suite file; a folder: its *.toml, sorted
 //   time_limit = 600               # [s] wall time of one case (default 1800); the case's process
 //                                  # is killed past it and recorded as timed out
+//   exclude = ["*ceres*collocation*"]   # globs over case ids: combinations not to run
 //
 //   [variations]                   # keys of the problem files (ProblemOverride) and the values
 //   "estimation.method" = ["multiple_shooting", "collocation"]        # to run: the cases are
@@ -84,7 +85,8 @@ struct Suite {
   std::vector<Variation> variations;
   double relative_perturbation = 0.0;
   std::vector<unsigned> seeds = {1};
-  double time_limit = 1800.0;  // [s] per case
+  double time_limit = 1800.0;        // [s] per case
+  std::vector<std::string> exclude;  // globs over case ids
   Tolerances tolerances;
 };
 
@@ -110,7 +112,7 @@ Suite LoadSuite(const std::string& path);
 /// A suite from text; `path` names it in messages and anchors relative problem paths.
 Suite ParseSuite(const std::string& text, const std::string& path);
 
-/// Every case of the suite, in the suite's order (file comment).
+/// Every case of the suite, in the suite's order, without the excluded ones (file comment).
 std::vector<Case> ExpandCases(const Suite& suite);
 
 /// The cases whose id matches the glob `pattern` (every case when it is empty).

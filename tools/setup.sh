@@ -12,6 +12,9 @@ GRAYBOX_PACKAGES=(
   chromium
   # Tests only: the libFuzzer harnesses and the sanitizer build (tools/fuzz.sh, tools/sanitize.sh).
   clang libclang-rt-14-dev
+  # Tests only: a single-node Slurm cluster for graybox bench --slurm (tools/slurm_test.sh), and
+  # jq to compare its records with a local run's.
+  slurm-wlm munge jq
 )
 
 graybox_install_packages() {

@@ -38,6 +38,8 @@ usage() {
 [ $# -eq 2 ] || usage
 cmd=$1
 mkdir -p "$2"
+# munged needs every folder above its socket searchable by all (a mktemp -d folder is 0700).
+chmod 755 "$2"
 state=$(cd "$2" && pwd)
 conf=$state/slurm.conf
 

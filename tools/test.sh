@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Set up, build, and run the whole test suite: a format check, the Release build with all tests,
+# the Slurm test (a single-node cluster on localhost runs a suite as a job array and its merge),
 # a clang AddressSanitizer + UndefinedBehaviorSanitizer build that runs the readers' libFuzzer
 # harnesses for 60 s each (tools/fuzz.sh) and the libexpr tests (tools/sanitize.sh),
 # and a consumer project built against the installed package. docs/testing.md.
@@ -16,6 +17,9 @@ echo "== format check"
 echo "== Release build and tests (all but the full golden-metric set, label golden_full)"
 graybox_build "$GRAYBOX_ROOT/build"
 ctest --test-dir "$GRAYBOX_ROOT/build" --output-on-failure -j "$jobs" -LE golden_full | tee "$log_dir/release.log"
+
+echo "== graybox bench --slurm on a single-node Slurm cluster started here (tools/slurm_test.sh)"
+bash "$GRAYBOX_ROOT/tools/slurm_test.sh" "$GRAYBOX_ROOT/build"
 
 echo "== clang AddressSanitizer + UndefinedBehaviorSanitizer build (build-fuzz/): the readers' fuzzers"
 # Each harness for 60 s from the shipped seeds (a finding fails the run and prints the input).
@@ -53,5 +57,5 @@ for f in "$log_dir"/release.log "$log_dir"/asan.log; do
   passed=$((passed + total - bad))
   failed=$((failed + bad))
 done
-echo "== all checks passed (format, Release tests, fuzzers, sanitizer tests, install consumer)"
+echo "== all checks passed (format, Release tests, Slurm, fuzzers, sanitizer tests, install consumer)"
 echo "tests: $passed passed, $failed failed"

@@ -145,6 +145,22 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--costs", bench.costs,
                         "balance --shard by the case times of an earlier output or baseline "
                         "(bench.json); cases it lacks cost its median");
+  bench_cmd->add_flag("--slurm", bench.slurm,
+                      "run the suite on a Slurm cluster: a job array of --shards N tasks (one "
+                      "shard each, into DIR/shards/K) and a merge job after it (DIR/merged); "
+                      "DIR on the file system the nodes share");
+  bench_cmd->add_option("--shards", bench.shards, "--slurm: the array's tasks (shards)")
+      ->check(CLI::PositiveNumber);
+  bench_cmd
+      ->add_option("--array-parallel", bench.array_parallel,
+                   "--slurm: array tasks at a time (default 0: as the scheduler allows)")
+      ->check(CLI::NonNegativeNumber);
+  bench_cmd->add_option("--partition", bench.partition, "--slurm: sbatch --partition");
+  bench_cmd->add_option("--time", bench.time_limit,
+                        "--slurm: sbatch --time of each task and the merge (e.g. 02:00:00)");
+  bench_cmd->add_flag("--slurm-script-only", bench.slurm_script_only,
+                      "--slurm: write DIR/slurm/bench_array.sh and bench_merge.sh, do not "
+                      "submit them");
   bench_cmd->add_option("--resume", bench.resume,
                         "an earlier output folder of this suite (same --shard and --filter): "
                         "its recorded cases are kept, the rest run (--out defaults to it)");
@@ -228,6 +244,7 @@ int main(int argc, char** argv) {
       return graybox::app::kExitBadInput;
     }
     bench.command_line = command_line;
+    if (bench.slurm || bench.slurm_script_only) return graybox::app::RunBenchSlurm(bench);
     return graybox::app::RunBench(bench);
   }
   if (blocks_cmd->parsed()) return graybox::app::RunBlocks(blocks);

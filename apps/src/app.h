@@ -56,14 +56,20 @@ struct CommandOptions {
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters
   // bench SUITE and bench case.
-  std::string suite;    // suite file or folder
-  int jobs = 1;         // cases at a time
-  std::string shard;    // "K/N" or empty
-  std::string filter;   // glob over case ids
-  std::string case_id;  // bench case: the case to run
-  std::string record;   // bench case: where its record goes
-  std::string resume;   // bench SUITE --resume: an earlier output folder of this suite
-  std::string costs;    // bench SUITE --costs: a bench output whose times balance shards
+  std::string suite;               // suite file or folder
+  int jobs = 1;                    // cases at a time
+  std::string shard;               // "K/N" or empty
+  std::string filter;              // glob over case ids
+  std::string case_id;             // bench case: the case to run
+  std::string record;              // bench case: where its record goes
+  std::string resume;              // bench SUITE --resume: an earlier output folder of this suite
+  bool slurm = false;              // bench SUITE --slurm: a job array of shards and a merge job
+  bool slurm_script_only = false;  // --slurm-script-only: write the scripts, do not submit
+  int shards = 0;                  // --shards N: the array's tasks
+  int array_parallel = 0;          // --array-parallel N: tasks at a time (0: no limit)
+  std::string partition;           // --partition P
+  std::string time_limit;          // --time LIMIT (sbatch's format)
+  std::string costs;               // bench SUITE --costs: a bench output whose times balance shards
   std::vector<std::string> inputs;  // bench merge: shard outputs; baseline/compare: the run
   std::string baseline;             // bench compare: the baseline file
   // blocks only.
@@ -81,6 +87,9 @@ int RunBenchWithheld(const CommandOptions& options);
 /// The batch runner (bench/runner): every case of a suite in its own process; writes
 /// DIR/bench.json, bench.csv, bench.md and DIR/cases/ (each case's record and log).
 int RunBench(const CommandOptions& options);
+/// The suite as a Slurm job array (bench::SaveSlurmScripts, bench::SubmitSlurm): writes
+/// DIR/slurm/bench_array.sh and bench_merge.sh and submits them unless --slurm-script-only.
+int RunBenchSlurm(const CommandOptions& options);
 /// One case of a suite in this process (what RunBench starts per case): writes its record.
 int RunBenchCase(const CommandOptions& options);
 /// Shard outputs joined into one (bench::MergeShards), with the cases' records and logs.

@@ -13,6 +13,7 @@
 #include "graybox/bench/compare.h"
 #include "graybox/bench/results.h"
 #include "graybox/bench/runner.h"
+#include "graybox/bench/slurm.h"
 
 namespace graybox::app {
 
@@ -100,6 +101,13 @@ std::vector<bench::CaseRecord> ResumedRecords(const CommandOptions& o, const ben
 
 int RunBench(const CommandOptions& o) {
   return Guarded([&]() -> int {
+    for (const auto& [given, name] :
+         {std::pair<bool, const char*>{o.shards > 0, "--shards"},
+          std::pair<bool, const char*>{o.array_parallel > 0, "--array-parallel"},
+          std::pair<bool, const char*>{!o.partition.empty(), "--partition"},
+          std::pair<bool, const char*>{!o.time_limit.empty(), "--time"}}) {
+      if (given) throw std::invalid_argument(std::string(name) + ": expected with --slurm");
+    }
     const Timer total;
     const bench::Suite suite = bench::LoadSuite(o.suite);
     const std::vector<bench::Case> all = bench::ExpandCases(suite);
@@ -190,6 +198,65 @@ int RunBench(const CommandOptions& o) {
                " --resume " + o.out + " --out " + o.out + " runs the rest");
       return kExitInterrupted;
     }
+    return kExitSuccess;
+  });
+}
+
+int RunBenchSlurm(const CommandOptions& o) {
+  return Guarded([&]() -> int {
+    if (o.shards < 1) {
+      throw std::invalid_argument("--slurm: expected --shards N (the array's tasks), got none");
+    }
+    if (!o.shard.empty() || !o.resume.empty()) {
+      throw std::invalid_argument(std::string("--slurm: ") +
+                                  (o.shard.empty() ? "--resume" : "--shard") +
+                                  " is not for a Slurm run (each task runs its own shard)");
+    }
+    // The suite, its cases and the costs are checked here, before anything is submitted.
+    const bench::Suite suite = bench::LoadSuite(o.suite);
+    const std::vector<bench::Case> cases = bench::FilterCases(bench::ExpandCases(suite), o.filter);
+    if (cases.empty()) {
+      throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite +
+                                  "): no case matches --filter '" + o.filter + "'");
+    }
+    if (static_cast<std::size_t>(o.shards) > cases.size()) {
+      throw std::invalid_argument("--shards " + std::to_string(o.shards) + ": expected at most " +
+                                  std::to_string(cases.size()) + ", the suite's cases");
+    }
+    if (!o.costs.empty()) bench::LoadBenchRun(o.costs);
+    bench::SlurmOptions options;
+    options.graybox = SelfExecutable();
+    options.suite = fs::absolute(o.suite).lexically_normal().string();
+    options.out_dir = fs::absolute(o.out).lexically_normal().string();
+    options.shards = o.shards;
+    options.array_parallel = o.array_parallel;
+    options.partition = o.partition;
+    options.time_limit = o.time_limit;
+    options.jobs_per_task = o.jobs;
+    options.filter = o.filter;
+    if (!o.costs.empty()) options.costs = fs::absolute(o.costs).lexically_normal().string();
+    bench::SlurmScripts scripts;
+    try {
+      scripts = bench::SaveSlurmScripts(options);
+    } catch (const std::invalid_argument& e) {
+      // SlurmOptions' field names, as the command line says them.
+      throw std::invalid_argument(std::string("--slurm: ") + e.what());
+    }
+    Progress("graybox bench --slurm: suite '" + suite.name + "', " + std::to_string(cases.size()) +
+             " cases in " + std::to_string(o.shards) + " array tasks; wrote " +
+             scripts.array_script + " and " + scripts.merge_script);
+    if (o.slurm_script_only) {
+      Progress("not submitted (--slurm-script-only): sbatch " + scripts.array_script +
+               ", then sbatch --dependency=afterany:<its job id> " + scripts.merge_script);
+      return kExitSuccess;
+    }
+    const bench::SlurmSubmission jobs =
+        bench::SubmitSlurm(scripts.array_script, scripts.merge_script);
+    Progress("submitted: array job " + jobs.array_job + " (" + std::to_string(o.shards) +
+             " tasks, shards in " + options.out_dir + "/shards), merge job " + jobs.merge_job +
+             " (afterany:" + jobs.array_job + ", into " + options.out_dir + "/merged); squeue -j " +
+             jobs.array_job + "," + jobs.merge_job);
+    std::cout << "array_job " << jobs.array_job << "\nmerge_job " << jobs.merge_job << "\n";
     return kExitSuccess;
   });
 }

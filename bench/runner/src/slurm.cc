@@ -137,6 +137,7 @@ void SlurmOptions::Validate() const {
   RequireAbsolute("graybox", graybox);
   RequireAbsolute("suite", suite);
   RequireAbsolute("out_dir", out_dir);
+  if (!costs.empty()) RequireAbsolute("costs", costs);
   RequireWord("out_dir", out_dir, kAlnum + "/._-+,:=@");
   if (shards < 1) {
     throw std::invalid_argument("SlurmOptions.shards: expected >= 1, got " +
@@ -175,6 +176,7 @@ SlurmScripts WriteSlurmScripts(const SlurmOptions& o) {
   a += "exec " + Quote(o.graybox) + " bench " + Quote(o.suite) + " \\\n";
   a += "  --shard \"$shard/" + n + "\" --jobs " + std::to_string(o.jobs_per_task);
   if (!o.filter.empty()) a += " --filter " + Quote(o.filter);
+  if (!o.costs.empty()) a += " --costs " + Quote(o.costs);
   a += " \\\n  --out " + Quote(out + "/shards/") + "\"$shard\"\n";
   std::string& m = s.merge_script;
   m = "#!/bin/bash\n#SBATCH --job-name=" + name + "-merge\n";

@@ -150,7 +150,6 @@ int RunBench(const CommandOptions& o) {
     if (!kept.empty()) CopyCaseFiles(o.resume, out.path(), kept);
     bench::RunOptions options;
     options.jobs = o.jobs;
-    options.case_command = {SelfExecutable(), "bench", "case", o.suite};
     options.work_dir = out.path();
     options.progress = StampedProgress(total, "  ");
     // Ctrl-C: the running cases are stopped and recorded as interrupted, what is done is written

@@ -8,8 +8,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -63,6 +65,103 @@ std::string Tail(const std::string& text, int lines) {
   while (!t.empty() && t.front() == '\n') t.erase(t.begin());
   while (!t.empty() && t.back() == '\n') t.pop_back();
   return t;
+}
+
+// Writes `text` to `path` through a temporary file and a rename (a reader never sees half a
+// record). False when it cannot.
+bool WriteWhole(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) return false;
+  }
+  return std::rename(tmp.c_str(), path.c_str()) == 0;
+}
+
+// The child's side of a case: its own process group, output into the log, the case run and its
+// record written; never returns.
+[[noreturn]] void RunCaseInChild(const Suite& suite, const Case& c, const std::string& record,
+                                 const std::string& log) {
+  setpgid(0, 0);
+  std::signal(SIGINT, SIG_DFL);
+  const int out = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out >= 0) {
+    dup2(out, STDOUT_FILENO);
+    dup2(out, STDERR_FILENO);
+  }
+  const int in = open("/dev/null", O_RDONLY | O_CLOEXEC);
+  if (in >= 0) dup2(in, STDIN_FILENO);
+  int code = 0;
+  try {
+    const CaseRecord r = RunCase(suite, c);
+    std::printf("case %s: %s%s%s%s\n", c.id.c_str(), r.status.c_str(), r.error.empty() ? "" : " (",
+                r.error.c_str(), r.error.empty() ? "" : ")");
+    if (!WriteWhole(record, CaseRecordJson(r))) {
+      std::printf("cannot write the record %s\n", record.c_str());
+      code = 1;
+    }
+  } catch (const std::exception& e) {
+    std::printf("case %s: %s\n", c.id.c_str(), e.what());
+    code = 1;
+  }
+  std::fflush(nullptr);
+  _exit(code);
+}
+
+// A case in a fork of this process (no program to load: the runner's overhead per case is the
+// fork, the record and the exit).
+pid_t ForkCase(const Suite& suite, const Case& c, const std::string& record,
+               const std::string& log) {
+  std::fflush(nullptr);  // buffered output would be written twice, once by the child
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error(std::string("RunSuite: fork: ") + std::strerror(errno));
+  if (pid == 0) RunCaseInChild(suite, c, record, log);
+  setpgid(pid, pid);  // also in the parent: no window in which a Ctrl-C reaches the child
+  return pid;
+}
+
+// A case as `command --case ID --record FILE` (RunOptions::case_command).
+pid_t SpawnCase(const std::vector<std::string>& command, const std::string& id,
+                const std::string& record, const std::string& log) {
+  std::vector<std::string> args = command;
+  args.insert(args.end(), {"--case", id, "--record", record});
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  // Its own process group: a Ctrl-C at the terminal reaches the runner only, which stops the
+  // cases itself and records them (RunOptions::interrupted).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attributes, 0);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, argv[0], &actions, &attributes, argv.data(), environ);
+  posix_spawnattr_destroy(&attributes);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    throw std::runtime_error("RunSuite: cannot start '" + args[0] + "': " + std::strerror(rc));
+  }
+  return pid;
+}
+
+// Reaps the processes of `exiting` that have ended.
+void ReapExited(std::vector<pid_t>* exiting) {
+  for (std::size_t k = 0; k < exiting->size();) {
+    int status = 0;
+    if (waitpid((*exiting)[k], &status, WNOHANG) != 0) {
+      exiting->erase(exiting->begin() + static_cast<std::ptrdiff_t>(k));
+    } else {
+      ++k;
+    }
+  }
 }
 
 }  // namespace
@@ -132,9 +231,6 @@ void RunOptions::Validate() const {
   if (jobs < 1) {
     throw std::invalid_argument("RunOptions.jobs: expected >= 1, got " + std::to_string(jobs));
   }
-  if (case_command.empty()) {
-    throw std::invalid_argument("RunOptions.case_command: expected a command, got none");
-  }
   if (work_dir.empty() || !fs::is_directory(work_dir)) {
     throw std::invalid_argument("RunOptions.work_dir: expected an existing folder, got '" +
                                 work_dir + "'");
@@ -171,32 +267,14 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
     if (options.progress) options.progress(line);
   };
   auto launch = [&](std::size_t i) {
-    std::vector<std::string> args = options.case_command;
-    args.insert(args.end(), {"--case", cases[i].id, "--record", record_path(i)});
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
     std::error_code ec;
     fs::remove(record_path(i), ec);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
     const std::string log = log_path(i);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
-                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-    posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    // Each case in its own process group: a Ctrl-C at the terminal reaches the runner only,
-    // which stops the cases itself and records them (RunOptions::interrupted).
-    posix_spawnattr_t attributes;
-    posix_spawnattr_init(&attributes);
-    posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
-    posix_spawnattr_setpgroup(&attributes, 0);
     pid_t pid = -1;
-    const int rc = posix_spawn(&pid, argv[0], &actions, &attributes, argv.data(), environ);
-    posix_spawnattr_destroy(&attributes);
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0) {
-      throw std::runtime_error("RunSuite: cannot start '" + args[0] + "': " + std::strerror(rc));
+    if (options.case_command.empty()) {
+      pid = ForkCase(suite, cases[i], record_path(i), log);
+    } else {
+      pid = SpawnCase(options.case_command, cases[i].id, record_path(i), log);
     }
     running.push_back({i, pid, Clock::now()});
   };
@@ -252,6 +330,7 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
              std::to_string(running.size() - 1) + ", not ok " + std::to_string(failed) +
              ", elapsed " + Fixed("%.0f", elapsed) + " s, left ~" + Fixed("%.0f", eta) + " s");
   };
+  std::vector<pid_t> exiting;  // processes of finished cases not yet reaped
   bool stop = false;
   while (finished < cases.size()) {
     if (!stop && options.interrupted && options.interrupted()) stop = true;
@@ -268,6 +347,12 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
         kill(running[k].pid, SIGKILL);
         waitpid(running[k].pid, &status, 0);
         finish(running[k], status, !stop, stop);
+      } else if (w == 0 && fs::exists(record_path(running[k].index))) {
+        // The record is complete (written whole, then renamed into place): the case is done. Its
+        // process is tearing down (a few milliseconds of unmapping) and is reaped below without
+        // holding a slot.
+        exiting.push_back(running[k].pid);
+        finish(running[k], 0, false, false);
       } else if (w == running[k].pid) {
         finish(running[k], status, false, false);
       } else if (w != 0) {
@@ -278,9 +363,21 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
       }
       running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
     }
-    // Polled every 5 ms: the latency a finished case waits to be collected (a 50 ms poll was
-    // a third of the runner's overhead on a 0.15 s case).
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ReapExited(&exiting);
+    // Polled every millisecond: the latency a finished case waits to be collected is part of
+    // the runner's overhead (a 50 ms poll was a third of it on a 0.15 s case).
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  // No process of a case outlives the run: those still exiting get options.kill_grace.
+  const auto wait_start = Clock::now();
+  while (!exiting.empty() && SecondsSince(wait_start) < options.kill_grace) {
+    ReapExited(&exiting);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  for (const pid_t pid : exiting) {
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
   }
   std::vector<CaseRecord> out;
   for (std::size_t i = 0; i < cases.size(); ++i) {

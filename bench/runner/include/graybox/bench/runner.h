@@ -5,13 +5,17 @@
 //               parameters' start values perturbed by the case's seed, LoadData, estimators::Fit
 //               (its solve limited to the suite's time_limit); the record of what happened.
 //               Errors of the problem or its data are recorded (status "error"), not thrown.
-//   RunSuite    every case in a child process: RunOptions::case_command + {"--case", id,
-//               "--record", FILE} (the command line's `graybox bench case SUITE`, which calls
-//               RunCase and writes the record as JSON); a case whose process exits without a
-//               record is "crashed" (with its exit code or signal), one past time_limit is killed
+//   RunSuite    every case in a child process: by default a fork of the calling process, which
+//               runs RunCase and writes the record as JSON (no program to load: the overhead per
+//               case is a few milliseconds); with RunOptions::case_command, that command +
+//               {"--case", id, "--record", FILE} (the command line's `graybox bench case SUITE`
+//               does the same in a fresh program). A case whose process exits without a record
+//               is "crashed" (with its exit code or signal), one past time_limit is killed
 //               (SIGKILL) and "timed_out"; the run goes on. Each case in its own process because
 //               Ipopt 3.11 with sequential MUMPS is not known to be thread-safe, and so that a
-//               crash or a runaway solve takes only its case.
+//               crash or a runaway solve takes only its case. Forking copies the caller: call
+//               RunSuite from a program that has no other threads running (the command line
+//               has none), or set case_command.
 //   Records     RecordOf: a record's identity (suite, id, index, problem, variation, seed)
 //               before the case runs.
 //   Shards      SelectShard: the k-th of n parts of the cases, balanced by estimated cost
@@ -78,8 +82,10 @@ CaseRecord RunCase(const Suite& suite, const Case& c);
 struct RunOptions {
   /// Cases at a time (>= 1).
   int jobs = 1;
-  /// The command that runs one case and writes its record (argv, without "--case ID --record
-  /// FILE"); `graybox bench` passes {itself, "bench", "case", SUITE}.
+  /// Empty (the default): each case runs in a fork of this process. Otherwise the command that
+  /// runs one case and writes its record (argv, without "--case ID --record FILE"), such as
+  /// {graybox, "bench", "case", SUITE}: a fresh program per case, for callers with threads of
+  /// their own or a wrapper (a profiler, a container) around each case.
   std::vector<std::string> case_command;
   /// Folder for the cases' records and logs (DIR/cases/<index>.json, .log); must exist.
   std::string work_dir;

@@ -142,6 +142,11 @@ int main(int argc, char** argv) {
                         "run the K-th of N parts of the cases, K/N (balanced, deterministic)");
   bench_cmd->add_option("--filter", bench.filter,
                         "only the cases whose id matches this glob ('*': any characters)");
+  bench_cmd
+      ->add_option("--seed", bench.seed,
+                   "run every case once with this seed (the fit's and the perturbation's) in "
+                   "place of the suite's seeds")
+      ->check(CLI::Range(0L, 4294967295L));
   bench_cmd->add_option("--costs", bench.costs,
                         "balance --shard by the case times of an earlier output or baseline "
                         "(bench.json); cases it lacks cost its median");

@@ -69,7 +69,8 @@ struct CommandOptions {
   int array_parallel = 0;          // --array-parallel N: tasks at a time (0: no limit)
   std::string partition;           // --partition P
   std::string time_limit;          // --time LIMIT (sbatch's format)
-  std::string costs;               // bench SUITE --costs: a bench output whose times balance shards
+  long seed = -1;     // bench SUITE --seed: every case with this seed (-1: the suite's)
+  std::string costs;  // bench SUITE --costs: a bench output whose times balance shards
   std::vector<std::string> inputs;  // bench merge: shard outputs; baseline/compare: the run
   std::string baseline;             // bench compare: the baseline file
   // blocks only.

@@ -81,8 +81,10 @@ std::vector<bench::CaseRecord> ResumedRecords(const CommandOptions& o, const ben
                                 "' (" + earlier.suite.path + "), expected '" + suite.name + "' (" +
                                 suite.path + ")");
   }
+  const std::string seed = o.seed >= 0 ? std::to_string(o.seed) : "";
   for (const auto& [key, value] : {std::pair<std::string, std::string>{"shard", o.shard},
-                                   std::pair<std::string, std::string>{"filter", o.filter}}) {
+                                   std::pair<std::string, std::string>{"filter", o.filter},
+                                   std::pair<std::string, std::string>{"seed", seed}}) {
     if (earlier.Run(key) != value) {
       throw std::invalid_argument("--resume " + o.resume + ": that run's --" + key + " was '" +
                                   earlier.Run(key) + "', this one's is '" + value + "'");
@@ -97,6 +99,16 @@ std::vector<bench::CaseRecord> ResumedRecords(const CommandOptions& o, const ben
   return kept;
 }
 
+// The suite of the command line, with --seed in place of its seeds.
+bench::Suite LoadCommandSuite(const CommandOptions& o) {
+  bench::Suite suite = bench::LoadSuite(o.suite);
+  if (o.seed >= 0) {
+    suite.seeds = {static_cast<unsigned>(o.seed)};
+    suite.seeds_stated = true;
+  }
+  return suite;
+}
+
 }  // namespace
 
 int RunBench(const CommandOptions& o) {
@@ -109,7 +121,7 @@ int RunBench(const CommandOptions& o) {
       if (given) throw std::invalid_argument(std::string(name) + ": expected with --slurm");
     }
     const Timer total;
-    const bench::Suite suite = bench::LoadSuite(o.suite);
+    const bench::Suite suite = LoadCommandSuite(o);
     const std::vector<bench::Case> all = bench::ExpandCases(suite);
     std::vector<bench::Case> cases = bench::FilterCases(all, o.filter);
     if (cases.empty()) {
@@ -151,6 +163,7 @@ int RunBench(const CommandOptions& o) {
     bench::RunOptions options;
     options.jobs = o.jobs;
     options.work_dir = out.path();
+    options.revision = GitRevision();
     options.progress = StampedProgress(total, "  ");
     // Ctrl-C: the running cases are stopped and recorded as interrupted, what is done is written
     // (the cases run in their own process groups, so the signal reaches this process only).
@@ -180,6 +193,7 @@ int RunBench(const CommandOptions& o) {
     run.run = RunMetadata(o);
     run.SetRun("shard", o.shard);
     run.SetRun("filter", o.filter);
+    run.SetRun("seed", o.seed >= 0 ? std::to_string(o.seed) : "");
     run.SetRun("costs", o.costs);
     run.SetRun("jobs", std::to_string(o.jobs));
     run.SetRun("cases_planned", std::to_string(planned));
@@ -212,7 +226,7 @@ int RunBenchSlurm(const CommandOptions& o) {
                                   " is not for a Slurm run (each task runs its own shard)");
     }
     // The suite, its cases and the costs are checked here, before anything is submitted.
-    const bench::Suite suite = bench::LoadSuite(o.suite);
+    const bench::Suite suite = LoadCommandSuite(o);
     const std::vector<bench::Case> cases = bench::FilterCases(bench::ExpandCases(suite), o.filter);
     if (cases.empty()) {
       throw std::invalid_argument("suite '" + suite.name + "' (" + o.suite +
@@ -233,6 +247,7 @@ int RunBenchSlurm(const CommandOptions& o) {
     options.time_limit = o.time_limit;
     options.jobs_per_task = o.jobs;
     options.filter = o.filter;
+    options.seed = o.seed;
     if (!o.costs.empty()) options.costs = fs::absolute(o.costs).lexically_normal().string();
     bench::SlurmScripts scripts;
     try {

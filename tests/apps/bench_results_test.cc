@@ -267,6 +267,9 @@ TEST_F(BenchCommands, ShardsMergedEqualTheWholeRunAndCompareWithABaseline) {
   ASSERT_EQ(merged.exit_code, 0) << merged.output;
   const nlohmann::json whole = Untimed(ReadText(Path("whole/bench.json")));
   ASSERT_EQ(whole.size(), 4u);
+  // Each record names the formulation's options and the program's revision.
+  EXPECT_EQ(whole[0].at("options").at("method").get<std::string>(), "multiple_shooting");
+  EXPECT_FALSE(whole[0].at("revision").get<std::string>().empty());
   EXPECT_EQ(Untimed(ReadText(Path("merged/bench.json"))), whole);
   for (int i = 0; i < 4; ++i) {
     EXPECT_TRUE(std::filesystem::exists(Path("merged/cases/" + std::to_string(i) + ".json")));
@@ -290,6 +293,14 @@ TEST_F(BenchCommands, ShardsMergedEqualTheWholeRunAndCompareWithABaseline) {
   EXPECT_TRUE(Contains(changed.output, "-4.7619 %")) << changed.output;  // 1/1.05 - 1
   EXPECT_TRUE(Contains(changed.output, "graybox bench baseline whole --out base.json"))
       << changed.output;
+  // --seed: every case once with that seed, in place of the suite's.
+  ASSERT_EQ(Graybox("bench s.toml --seed 9 --out seeded", "s9.txt").exit_code, 0);
+  const nlohmann::json seeded = nlohmann::json::parse(ReadText(Path("seeded/bench.json")));
+  ASSERT_EQ(seeded.at("cases").size(), 2u);  // the two segment lengths
+  for (const auto& c : seeded.at("cases")) {
+    EXPECT_EQ(c.at("seed").get<unsigned>(), 9u);
+    EXPECT_TRUE(Contains(c.at("id").get<std::string>(), "/seed=9")) << c.at("id");
+  }
   // Tolerances read anew from a suite file: 10 % admits it.
   WriteText(Path("loose.toml"),
             "[suite]\nproblems = [\"pushed.toml\"]\n[tolerances]\n"

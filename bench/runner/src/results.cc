@@ -50,6 +50,9 @@ json RecordObject(const CaseRecord& r) {
   j["method"] = r.method;
   j["solver"] = r.solver;
   j["solver_status"] = r.solver_status;
+  j["options"] = json::object();
+  for (const auto& [k, v] : r.options) j["options"][k] = v;
+  j["revision"] = r.revision;
   j["iterations"] = r.iterations;
   j["cost"] = Number(r.cost);
   j["parameters"] = json::array();
@@ -127,6 +130,12 @@ CaseRecord RecordFrom(const json& j) {
   r.method = j.at("method").get<std::string>();
   r.solver = j.at("solver").get<std::string>();
   r.solver_status = j.at("solver_status").get<std::string>();
+  if (j.contains("options")) {  // absent in records written before it was added
+    for (const auto& [k, v] : j.at("options").items()) {
+      r.options.emplace_back(k, v.get<std::string>());
+    }
+  }
+  r.revision = j.value("revision", std::string());
   r.iterations = j.at("iterations").get<int>();
   r.cost = NumberOf(j, "cost");
   for (const json& p : j.at("parameters")) {
@@ -322,9 +331,11 @@ BenchRun MergeShards(const std::vector<BenchRun>& shards, const std::vector<std:
                                   s.suite.name + "' (" + s.suite.path + "), " + names[0] + " of '" +
                                   first.suite.name + "' (" + first.suite.path + ")");
     }
-    if (s.Run("filter") != first.Run("filter")) {
-      throw std::invalid_argument("bench merge: " + names[i] + " ran --filter '" + s.Run("filter") +
-                                  "', " + names[0] + " '" + first.Run("filter") + "'");
+    for (const char* key : {"filter", "seed"}) {
+      if (s.Run(key) != first.Run(key)) {
+        throw std::invalid_argument("bench merge: " + names[i] + " ran --" + key + " '" +
+                                    s.Run(key) + "', " + names[0] + " '" + first.Run(key) + "'");
+      }
     }
     const std::string shard = s.Run("shard");
     int k = 1, n = 1;
@@ -389,6 +400,7 @@ BenchRun MergeShards(const std::vector<BenchRun>& shards, const std::vector<std:
                 {"version", first.Run("version")},
                 {"shard", ""},
                 {"filter", first.Run("filter")},
+                {"seed", first.Run("seed")},
                 {"merged_from", from},
                 {"cases_planned", std::to_string(planned)},
                 {"wall_seconds", G(wall)},

@@ -201,6 +201,7 @@ CaseRecord RunCase(const Suite& suite, const Case& c) {
     r.method = fit.method;
     r.solver = fit.solver;
     r.solver_status = fit.solver_result.status;
+    r.options = fit.formulation;
     r.iterations = fit.solver_result.iterations;
     r.cost = fit.solver_result.cost;
     r.status = fit.solver_result.success ? "ok"
@@ -315,6 +316,7 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
       if (!tail.empty()) r.error += "; log: " + tail;
     }
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.revision = options.revision;
     r.seconds = seconds;
     records[i] = std::move(r);
     done[i] = true;

@@ -176,6 +176,7 @@ SlurmScripts WriteSlurmScripts(const SlurmOptions& o) {
   a += "exec " + Quote(o.graybox) + " bench " + Quote(o.suite) + " \\\n";
   a += "  --shard \"$shard/" + n + "\" --jobs " + std::to_string(o.jobs_per_task);
   if (!o.filter.empty()) a += " --filter " + Quote(o.filter);
+  if (o.seed >= 0) a += " --seed " + std::to_string(o.seed);
   if (!o.costs.empty()) a += " --costs " + Quote(o.costs);
   a += " \\\n  --out " + Quote(out + "/shards/") + "\"$shard\"\n";
   std::string& m = s.merge_script;

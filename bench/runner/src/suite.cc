@@ -169,6 +169,7 @@ Suite ParseSuite(const std::string& text, const std::string& path) {
                     est::toml_io::ValueText(*n));
       }
       suite.seeds.clear();
+      suite.seeds_stated = true;
       for (const toml::node& e : *a) {
         const auto* i = e.as_integer();
         if (i == nullptr || i->get() < 0 || i->get() > 4294967295LL) {
@@ -238,7 +239,7 @@ std::vector<Case> ExpandCases(const Suite& suite) {
   // Problem names for the ids: the file stem, with its parent folder when two stems clash.
   std::map<std::string, int> stems;
   for (const std::string& p : suite.problems) ++stems[fs::path(p).stem().string()];
-  const bool seeded = suite.relative_perturbation > 0.0 || suite.seeds.size() > 1;
+  const bool seeded = suite.relative_perturbation > 0.0 || suite.seeds_stated;
   std::vector<bool> used(suite.exclude.size(), false);
   for (const std::string& problem : suite.problems) {
     std::string name = fs::path(problem).stem().string();

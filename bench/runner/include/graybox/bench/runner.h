@@ -29,6 +29,7 @@
 #include <cstddef>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "graybox/bench/suite.h"
@@ -67,6 +68,10 @@ struct CaseRecord {
   double case_seconds = 0.0;  // wall time of RunCase (problem, data, fit); seconds - case_seconds
                               // is the runner's overhead (process start, suite, record)
   std::string method, solver, solver_status;
+  /// The formulation's options as the fit used them (estimators::FitResult::formulation:
+  /// method, segment length, scheme, decimation, ...).
+  std::vector<std::pair<std::string, std::string>> options;
+  std::string revision;  // RunOptions::revision: the program that ran the case
   int iterations = 0;
   double cost = 0.0;
   std::vector<ParameterRecord> parameters;
@@ -98,6 +103,8 @@ struct RunOptions {
   /// Asked between polls: true stops launching cases and kills the running ones (recorded as
   /// "interrupted").
   std::function<bool()> interrupted;
+  /// Stamped on every record (the command line passes its `git describe`).
+  std::string revision;
   /// Throws std::invalid_argument naming the first invalid field.
   void Validate() const;
 };

@@ -8,7 +8,8 @@
 //                                OUT/shards/${SLURM_ARRAY_TASK_ID} (an earlier run's shard must
 //                                not be merged as this one's), then runs
 //                                GRAYBOX bench SUITE --shard ${SLURM_ARRAY_TASK_ID}/N --jobs J
-//                                [--filter F] [--costs C] --out OUT/shards/${SLURM_ARRAY_TASK_ID}
+//                                [--filter F] [--seed S] [--costs C] --out
+//                                OUT/shards/${SLURM_ARRAY_TASK_ID}
 //                         merge: --job-name=graybox-bench-<stem>-merge,
 //                                --output=OUT/slurm/merge_%j.log, the same partition and time;
 //                                runs GRAYBOX bench merge OUT/shards/1 ... OUT/shards/N
@@ -51,6 +52,7 @@ struct SlurmOptions {
   std::string time_limit;  // sbatch --time of each task and the merge, e.g. "02:00:00"; empty: none
   int jobs_per_task = 1;   // graybox bench --jobs in each task, and its --cpus-per-task (>= 1)
   std::string filter;      // passed through as --filter; empty: every case
+  long seed = -1;          // passed through as --seed when >= 0
   std::string costs;       // absolute path passed through as --costs (balances the shards by an
                            // earlier run's times); empty: every case costs 1
   /// Throws std::invalid_argument naming the first invalid field.

@@ -27,7 +27,7 @@
 //
 // Cases: problems x variations (in key order, values in file order) x seeds, in that order. A
 // case's id is "<problem>/<key>=<value>,.../seed=<s>" (the parts that apply: no variation part
-// without variations, no seed part with a single seed and no perturbation; a string value
+// without variations, no seed part unless the suite states seeds or a perturbation; a string value
 // without its quotes), unique in the suite; --filter selects cases by a glob on it ('*' any run of
 // characters).
 //
@@ -85,6 +85,8 @@ struct Suite {
   std::vector<Variation> variations;
   double relative_perturbation = 0.0;
   std::vector<unsigned> seeds = {1};
+  /// [perturbation] seeds was given (or `graybox bench --seed`): the seeds are the fits' seeds.
+  bool seeds_stated = false;
   double time_limit = 1800.0;        // [s] per case
   std::vector<std::string> exclude;  // globs over case ids
   Tolerances tolerances;
@@ -100,7 +102,7 @@ struct Case {
   std::string problem_name;
   std::vector<estimators::ProblemOverride> overrides;
   unsigned seed = 1;
-  /// The suite states a perturbation or more than one seed: `seed` is the fit's seed
+  /// The suite states seeds or a perturbation (Suite::seeds_stated): `seed` is the fit's seed
   /// (EstimationSpec::seed); otherwise the problem file's own seed stays.
   bool seeded = false;
   double relative_perturbation = 0.0;

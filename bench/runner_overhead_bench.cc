@@ -1,8 +1,10 @@
 // The batch runner's overhead per case (docs/bench.md, "Overhead"): RunSuite runs the shortest
 // shipped case (EMPS IDIM-LS, about 0.15 s of work) in its own process, either forked from the
 // runner (the default) or as a fresh `graybox bench case` program (RunOptions::case_command).
-// The counters are per case: overhead_ms = seconds - case_seconds (process start, suite, record,
-// exit, collection) and its share of the case's own time.
+// The counters are per case: overhead_ms = seconds - case_seconds (from just before the fork or
+// the program's start to the record in place, less the case's own work: the fork or the
+// program's loading and the suite, the record, the collection; not the process's teardown) and
+// its share of the case's own time.
 //   build/bench/runner_overhead_bench --benchmark_repetitions=5
 //   --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>

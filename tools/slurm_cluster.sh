@@ -37,9 +37,17 @@ usage() {
 }
 [ $# -eq 2 ] || usage
 cmd=$1
-mkdir -p "$2"
-# munged needs every folder above its socket searchable by all (a mktemp -d folder is 0700).
-chmod 755 "$2"
+case "$cmd" in
+  start)
+    mkdir -p "$2"
+    # munged needs every folder above its socket searchable by all (a mktemp -d folder is 0700).
+    chmod 755 "$2"
+    ;;
+  stop)
+    [ -d "$2" ] || exit 0  # nothing was started there
+    ;;
+  *) usage ;;
+esac
 state=$(cd "$2" && pwd)
 conf=$state/slurm.conf
 

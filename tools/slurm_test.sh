@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The Slurm test of the batch runner (docs/bench.md, "On a Slurm cluster"): starts a single-node
+# The Slurm test of the batch runner (docs/slurm.md): starts a single-node
 # cluster on this machine (tools/slurm_cluster.sh: munged, slurmctld and slurmd on localhost with
 # a generated slurm.conf, all state in a temporary folder), runs a small suite as a job array of
 # 3 tasks and the merge job (`graybox bench SUITE --slurm --shards 3`), waits for them, and checks
@@ -59,8 +59,10 @@ while [ -n "$(squeue -h -j "$array,$merge" -o %i 2>/dev/null)" ]; do
 done
 failed=0
 for job in "$array" "$merge"; do
-  # The array's tasks are listed one per line; every task and the merge must have completed.
-  if scontrol show job "$job" | grep -o 'JobState=[A-Z_]*' | grep -qv 'JobState=COMPLETED'; then
+  # The array's tasks are listed one per line; every task and the merge must have completed (and
+  # a job scontrol cannot show counts as failed).
+  states=$(scontrol show job "$job" 2>/dev/null | grep -o 'JobState=[A-Z_]*' || true)
+  if [ -z "$states" ] || grep -qv 'JobState=COMPLETED' <<<"$states"; then
     failed=1
   fi
 done

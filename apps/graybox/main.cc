@@ -6,9 +6,11 @@
 //   graybox check PROBLEM [--check-derivatives]
 //   graybox diagnose PROBLEM --out DIR [--max-effects N] [--refit-top N] [--threads N]
 //                    [--effects a,b,...]
-//   graybox bench SUITE --out DIR [--jobs N] [--shard K/N] [--filter GLOB]
-//   graybox bench SUITE --resume DIR [--out DIR2] [...]
-//   graybox bench case SUITE --case ID --record FILE
+//   graybox bench SUITE --out DIR [--jobs N] [--shard K/N [--costs FILE]] [--filter GLOB]
+//                 [--seed S] [--resume DIR0]
+//   graybox bench SUITE --slurm --shards N --out DIR [--array-parallel P] [--partition P]
+//                 [--time LIMIT] [--slurm-script-only] [...]
+//   graybox bench case SUITE --case ID --record FILE [--seed S]
 //   graybox bench merge DIR1 DIR2 ... --out DIR
 //   graybox bench baseline DIR --out FILE
 //   graybox bench compare DIR --baseline FILE [--suite SUITE]
@@ -200,6 +202,10 @@ int main(int argc, char** argv) {
   case_cmd->add_option("--case", bench_case.case_id, "the case's id")->required();
   case_cmd->add_option("--record", bench_case.record, "where to write its record (JSON)")
       ->required();
+  case_cmd
+      ->add_option("--seed", bench_case.seed,
+                   "the seed the run had (graybox bench --seed), in place of the suite's")
+      ->check(CLI::Range(0L, 4294967295L));
   CLI::App* withheld_cmd = bench_cmd->add_subcommand(
       "withheld",
       "run the diagnosis on the withheld-effect cases (problems/withheld) and score it: "

@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// This program's own path (the bench runner starts one process of it per case).
+// This program's own path (the Slurm scripts run it).
 std::string SelfExecutable() {
   std::error_code ec;
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);
@@ -29,36 +29,33 @@ std::string SelfExecutable() {
   return self.string();
 }
 
-// Set by SIGINT while `graybox bench` runs its cases.
+// Set by SIGINT or SIGTERM while `graybox bench` runs its cases.
 volatile std::sig_atomic_t bench_interrupted = 0;
 void OnBenchInterrupt(int) { bench_interrupted = 1; }
 
-// --shard K/N: the 1-based shard and the number of shards.
-std::pair<int, int> ParseShard(const std::string& text) {
-  int k = 0, n = 0;
-  char tail = 0;
-  if (std::sscanf(text.c_str(), "%d/%d%c", &k, &n, &tail) != 2 || n < 1 || k < 1 || k > n) {
-    throw std::invalid_argument("--shard: expected K/N with 1 <= K <= N (e.g. 2/4), got '" + text +
-                                "'");
-  }
-  return {k, n};
-}
-
-// Copies cases/<index>.json and .log of `records` from the output folder `from` to `to`
-// (missing files are skipped: a case interrupted before it wrote one).
+// Copies cases/<old>.json and .log of each {old, new} index pair from the output folder `from`
+// to cases/<new>.* in `to` (missing files are skipped: a case interrupted before it wrote one).
 void CopyCaseFiles(const std::string& from, const std::string& to,
-                   const std::vector<bench::CaseRecord>& records) {
+                   const std::vector<std::pair<std::size_t, std::size_t>>& indices) {
   fs::create_directories(fs::path(to) / "cases");
-  for (const bench::CaseRecord& r : records) {
+  for (const auto& [old_index, new_index] : indices) {
     for (const char* ext : {".json", ".log"}) {
-      const fs::path name = fs::path("cases") / (std::to_string(r.index) + ext);
+      const fs::path source = fs::path(from) / "cases" / (std::to_string(old_index) + ext);
       std::error_code ec;
-      if (fs::exists(fs::path(from) / name, ec)) {
-        fs::copy_file(fs::path(from) / name, fs::path(to) / name,
+      if (fs::exists(source, ec)) {
+        fs::copy_file(source, fs::path(to) / "cases" / (std::to_string(new_index) + ext),
                       fs::copy_options::overwrite_existing);
       }
     }
   }
+}
+
+// {index, index} of each record: files kept under their names.
+std::vector<std::pair<std::size_t, std::size_t>> SameIndices(
+    const std::vector<bench::CaseRecord>& records) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (const bench::CaseRecord& r : records) out.emplace_back(r.index, r.index);
+  return out;
 }
 
 // bench.csv, bench.md and, last, bench.json of `run` into the folder `dir`.
@@ -71,10 +68,12 @@ void WriteBenchOutputs(const std::string& dir, const bench::BenchRun& run) {
 }
 
 // The records of an earlier output of this suite that --resume keeps: every case recorded with
-// a status other than "interrupted" that is among `cases`. Refused when the output is of another
-// suite, shard or filter.
-std::vector<bench::CaseRecord> ResumedRecords(const CommandOptions& o, const bench::Suite& suite,
-                                              const std::vector<bench::Case>& cases) {
+// a status other than "interrupted" that is among `cases`, its index set to the case's place in
+// the suite as it is now (cases may have been added); `moved` gets the {earlier, now} index of
+// each, for its files. Refused when the output is of another suite, shard, filter or seed.
+std::vector<bench::CaseRecord> ResumedRecords(
+    const CommandOptions& o, const bench::Suite& suite, const std::vector<bench::Case>& cases,
+    std::vector<std::pair<std::size_t, std::size_t>>* moved) {
   const bench::BenchRun earlier = bench::LoadBenchRun(o.resume);
   if (earlier.suite.name != suite.name || earlier.suite.path != suite.path) {
     throw std::invalid_argument("--resume " + o.resume + ": a run of suite '" + earlier.suite.name +
@@ -90,11 +89,15 @@ std::vector<bench::CaseRecord> ResumedRecords(const CommandOptions& o, const ben
                                   earlier.Run(key) + "', this one's is '" + value + "'");
     }
   }
-  std::set<std::string> ids;
-  for (const bench::Case& c : cases) ids.insert(c.id);
+  std::map<std::string, std::size_t> index_of;
+  for (const bench::Case& c : cases) index_of[c.id] = c.index;
   std::vector<bench::CaseRecord> kept;
   for (const bench::CaseRecord& r : earlier.records) {
-    if (r.status != "interrupted" && ids.count(r.id)) kept.push_back(r);
+    const auto it = index_of.find(r.id);
+    if (r.status == "interrupted" || it == index_of.end()) continue;
+    moved->emplace_back(r.index, it->second);
+    kept.push_back(r);
+    kept.back().index = it->second;
   }
   return kept;
 }
@@ -131,7 +134,7 @@ int RunBench(const CommandOptions& o) {
     }
     std::string shard_text;
     if (!o.shard.empty()) {
-      const auto [k, n] = ParseShard(o.shard);
+      const auto [k, n] = bench::ParseShard(o.shard);
       cases =
           bench::SelectShard(cases, k, n,
                              o.costs.empty() ? bench::CostFunction()
@@ -142,8 +145,9 @@ int RunBench(const CommandOptions& o) {
     }
     const std::size_t planned = cases.size();
     std::vector<bench::CaseRecord> kept;
+    std::vector<std::pair<std::size_t, std::size_t>> moved;  // {earlier, now} index of kept cases
     if (!o.resume.empty()) {
-      kept = ResumedRecords(o, suite, cases);
+      kept = ResumedRecords(o, suite, cases, &moved);
       std::set<std::string> done;
       for (const bench::CaseRecord& r : kept) done.insert(r.id);
       std::vector<bench::Case> left;
@@ -159,37 +163,41 @@ int RunBench(const CommandOptions& o) {
              (o.resume.empty() ? ""
                                : "; resuming " + o.resume + ": " + std::to_string(kept.size()) +
                                      " recorded, " + std::to_string(cases.size()) + " to run"));
-    if (!kept.empty()) CopyCaseFiles(o.resume, out.path(), kept);
+    if (!kept.empty()) CopyCaseFiles(o.resume, out.path(), moved);
     bench::RunOptions options;
     options.jobs = o.jobs;
     options.work_dir = out.path();
     options.revision = GitRevision();
     options.progress = StampedProgress(total, "  ");
-    // Ctrl-C: the running cases are stopped and recorded as interrupted, what is done is written
-    // (the cases run in their own process groups, so the signal reaches this process only).
+    // Ctrl-C (SIGINT) or SIGTERM (kill, a Slurm time limit or scancel): the running cases are
+    // stopped and recorded as interrupted, what is done is written (the cases run in their own
+    // process groups, so a terminal's signal reaches this process only).
     options.interrupted = []() { return bench_interrupted != 0; };
     bench_interrupted = 0;
-    struct sigaction action = {}, previous = {};
+    struct sigaction action = {}, previous_int = {}, previous_term = {};
     action.sa_handler = OnBenchInterrupt;
     sigemptyset(&action.sa_mask);
-    sigaction(SIGINT, &action, &previous);
+    sigaction(SIGINT, &action, &previous_int);
+    sigaction(SIGTERM, &action, &previous_term);
+    auto restore = [&]() {
+      sigaction(SIGINT, &previous_int, nullptr);
+      sigaction(SIGTERM, &previous_term, nullptr);
+    };
     std::vector<bench::CaseRecord> records;
     try {
       if (!cases.empty()) records = bench::RunSuite(suite, cases, options);
     } catch (...) {
-      sigaction(SIGINT, &previous, nullptr);
+      restore();
       throw;
     }
-    sigaction(SIGINT, &previous, nullptr);
+    restore();
     const bool interrupted = bench_interrupted != 0;
     bench::BenchRun run;
     run.suite = suite;
     run.machine = bench::ThisMachine();
     run.records = std::move(kept);
     run.records.insert(run.records.end(), records.begin(), records.end());
-    std::stable_sort(
-        run.records.begin(), run.records.end(),
-        [](const bench::CaseRecord& a, const bench::CaseRecord& b) { return a.index < b.index; });
+    bench::SortByIndex(&run.records);
     run.run = RunMetadata(o);
     run.SetRun("shard", o.shard);
     run.SetRun("filter", o.filter);
@@ -277,10 +285,11 @@ int RunBenchSlurm(const CommandOptions& o) {
 
 int RunBenchCase(const CommandOptions& o) {
   return Guarded([&]() -> int {
-    const bench::Suite suite = bench::LoadSuite(o.suite);
+    const bench::Suite suite = LoadCommandSuite(o);
     for (const bench::Case& c : bench::ExpandCases(suite)) {
       if (c.id != o.case_id) continue;
-      const bench::CaseRecord r = bench::RunCase(suite, c);
+      bench::CaseRecord r = bench::RunCase(suite, c);
+      r.revision = GitRevision();
       Progress("case " + c.id + ": " + r.status + (r.error.empty() ? "" : " (" + r.error + ")"));
       WriteFileAtomically(o.record, bench::CaseRecordJson(r));
       return kExitSuccess;
@@ -292,13 +301,23 @@ int RunBenchCase(const CommandOptions& o) {
 
 int RunBenchMerge(const CommandOptions& o) {
   return Guarded([&]() -> int {
+    // Every unreadable shard at once (a Slurm task that failed leaves its folder without
+    // bench.json).
     std::vector<bench::BenchRun> shards;
-    for (const std::string& dir : o.inputs) shards.push_back(bench::LoadBenchRun(dir));
+    std::string unreadable;
+    for (const std::string& dir : o.inputs) {
+      try {
+        shards.push_back(bench::LoadBenchRun(dir));
+      } catch (const std::invalid_argument& e) {
+        unreadable += std::string(unreadable.empty() ? "" : "\n") + e.what();
+      }
+    }
+    if (!unreadable.empty()) throw std::invalid_argument("bench merge: " + unreadable);
     bench::BenchRun merged = bench::MergeShards(shards, o.inputs);
     merged.run.insert(merged.run.begin(), {"command_line", o.command_line});
     RunOutput out(o.out);
     for (std::size_t i = 0; i < shards.size(); ++i) {
-      CopyCaseFiles(o.inputs[i], out.path(), shards[i].records);
+      CopyCaseFiles(o.inputs[i], out.path(), SameIndices(shards[i].records));
     }
     WriteBenchOutputs(out.path(), merged);
     Progress("graybox bench merge: " + std::to_string(shards.size()) + " shards of suite '" +

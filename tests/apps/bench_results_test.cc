@@ -161,6 +161,26 @@ TEST(BenchResults, ShardsMergeIntoTheWholeRunOrRefuseWhatIsMissing) {
   BenchRun three = two;
   three.SetRun("shard", "2/3");
   EXPECT_TRUE(Contains(error({one, three}, {"d1", "d2"}), "one of 2"));
+  BenchRun beyond = two;
+  beyond.SetRun("shard", "3/2");
+  EXPECT_TRUE(Contains(error({one, beyond}, {"d1", "d2"}), "d2: run.shard"))
+      << error({one, beyond}, {"d1", "d2"});
+  // Different partitions or runs: seeds, costs.
+  BenchRun reseeded = two;
+  reseeded.SetRun("seed", "5");
+  EXPECT_TRUE(Contains(error({one, reseeded}, {"d1", "d2"}), "ran --seed '5'"));
+  BenchRun costed = two;
+  costed.SetRun("costs", "old/bench.json");
+  EXPECT_TRUE(Contains(error({one, costed}, {"d1", "d2"}), "ran --costs"));
+  // A shard that lost a case without an interrupt is refused; an interrupted one merges as
+  // interrupted, and no baseline is made of it.
+  BenchRun lost = two;
+  lost.SetRun("cases_planned", "2");
+  EXPECT_TRUE(Contains(error({one, lost}, {"d1", "d2"}), "planned 4 cases and recorded 3"));
+  lost.SetRun("interrupted", "true");
+  const BenchRun partial = MergeShards({one, lost}, {"d1", "d2"});
+  EXPECT_EQ(partial.Run("interrupted"), "true");
+  EXPECT_THROW(BaselineJson(partial, "merged"), std::invalid_argument);
 }
 
 TEST(BenchResults, RecordedTimesBalanceTheShards) {
@@ -214,6 +234,16 @@ TEST(BenchCompare, EveryValueOutsideItsToleranceIsAFinding) {
       << report;
   // The same run compared with itself: nothing; a new case alone is no regression.
   EXPECT_TRUE(CompareRuns(run, run, t).findings.empty());
+  // A missing parameter counts only where parameters are compared; another suite is refused.
+  BenchRun fewer = base;
+  fewer.records[0].parameters.erase(fewer.records[0].parameters.begin());
+  EXPECT_EQ(CompareRuns(base, fewer, t).findings.size(), 1u);
+  Tolerances no_parameters = t;
+  no_parameters.parameters.compared = false;
+  EXPECT_TRUE(CompareRuns(base, fewer, no_parameters).findings.empty());
+  BenchRun other = base;
+  other.suite.name = "t";
+  EXPECT_THROW(CompareRuns(base, other, t), std::invalid_argument);
   BenchRun more = base;
   more.records.push_back(Record("e", 4, 95.0, 0.1));
   const Comparison added = CompareRuns(base, more, t);
@@ -301,6 +331,10 @@ TEST_F(BenchCommands, ShardsMergedEqualTheWholeRunAndCompareWithABaseline) {
     EXPECT_EQ(c.at("seed").get<unsigned>(), 9u);
     EXPECT_TRUE(Contains(c.at("id").get<std::string>(), "/seed=9")) << c.at("id");
   }
+  // A file that is not a bench output: exit 2, naming it.
+  const auto not_bench = Graybox("bench compare whole --baseline s.toml", "c4.txt");
+  EXPECT_EQ(not_bench.exit_code, 2);
+  EXPECT_TRUE(Contains(not_bench.output, "s.toml: not JSON")) << not_bench.output;
   // Tolerances read anew from a suite file: 10 % admits it.
   WriteText(Path("loose.toml"),
             "[suite]\nproblems = [\"pushed.toml\"]\n[tolerances]\n"

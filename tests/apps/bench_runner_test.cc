@@ -89,6 +89,13 @@ TEST_F(BenchSuite, VariationsAndSeedsMakeOneCaseEachWithAnId) {
     EXPECT_EQ(kept[i].index, i);
     EXPECT_FALSE(Contains(kept[i].id, "=10,estimation.solver=ceres")) << kept[i].id;
   }
+  // With seeds the ids end in /seed=<s>; an exclusion written without them still holds.
+  Suite seeded = ParseSuite(with_exclude, Path("s.toml"));
+  seeded.seeds = {7, 8};
+  seeded.seeds_stated = true;
+  const std::vector<Case> seeded_cases = ExpandCases(seeded);
+  ASSERT_EQ(seeded_cases.size(), 6u);
+  EXPECT_TRUE(Contains(seeded_cases[0].id, "/seed=7")) << seeded_cases[0].id;
 }
 
 TEST_F(BenchSuite, ShardsPartitionTheCasesDeterministically) {
@@ -200,6 +207,49 @@ TEST_F(BenchSuite, EachCaseRunsInItsOwnProcessWithItsRecord) {
   ASSERT_EQ(stopped.size(), 1u);
   EXPECT_EQ(stopped[0].id, cases[0].id);
   EXPECT_EQ(stopped[0].status, "interrupted") << stopped[0].error;
+}
+
+// The default: each case in a fork of the calling process; a case process that exits without a
+// record is recorded as crashed, with its exit code or signal.
+TEST_F(BenchSuite, ForkedCasesRecordAndCrashesAreRecorded) {
+  WriteText(Path("s.toml"),
+            "[suite]\nname = \"pushed\"\nproblems = [\"pushed.toml\"]\n"
+            "[perturbation]\nrelative = 0.05\nseeds = [1, 2]\n");
+  const Suite suite = LoadSuite(Path("s.toml"));
+  const std::vector<Case> cases = ExpandCases(suite);
+  ASSERT_EQ(cases.size(), 2u);
+  std::filesystem::create_directories(dir_ / "work");
+  RunOptions options;
+  options.jobs = 2;
+  options.work_dir = Path("work");
+  options.revision = "r1";
+  const std::vector<CaseRecord> forked = RunSuite(suite, cases, options);
+  ASSERT_EQ(forked.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(forked[i].status, "ok") << forked[i].error;
+    EXPECT_EQ(forked[i].exit_code, 0);
+    EXPECT_EQ(forked[i].revision, "r1");
+    EXPECT_GE(forked[i].seconds, forked[i].case_seconds);
+    const CaseRecord here = RunCase(suite, cases[i]);
+    ASSERT_EQ(here.parameters.size(), forked[i].parameters.size());
+    for (std::size_t p = 0; p < here.parameters.size(); ++p) {
+      EXPECT_EQ(here.parameters[p].value, forked[i].parameters[p].value);
+    }
+    EXPECT_TRUE(std::filesystem::exists(Path("work/cases/" + std::to_string(i) + ".log")));
+  }
+  // Programs that leave no record: an exit code, a signal.
+  options.case_command = {"/bin/false"};
+  const std::vector<CaseRecord> failed = RunSuite(suite, {cases[0]}, options);
+  ASSERT_EQ(failed.size(), 1u);
+  EXPECT_EQ(failed[0].status, "crashed");
+  EXPECT_EQ(failed[0].exit_code, 1);
+  EXPECT_TRUE(Contains(failed[0].error, "exited with code 1 without a record")) << failed[0].error;
+  options.case_command = {"/bin/sh", "-c", "kill -9 $$", "sh"};
+  const std::vector<CaseRecord> killed = RunSuite(suite, {cases[0]}, options);
+  ASSERT_EQ(killed.size(), 1u);
+  EXPECT_EQ(killed[0].status, "crashed");
+  EXPECT_EQ(killed[0].exit_code, 128 + 9);
+  EXPECT_TRUE(Contains(killed[0].error, "killed by signal 9")) << killed[0].error;
 }
 
 TEST_F(BenchSuite, TheCommandWritesBenchJsonCsvAndMarkdown) {

@@ -28,10 +28,10 @@ class Comparer {
   void Case(const CaseRecord& base, const CaseRecord& run) {
     ++out_->cases_compared;
     if (base.status != run.status) {
+      // A new failure, or a case that now converges: either is a change to accept.
       Finding f = Make(run.id, "status", "");
       f.baseline_text = base.status;
       f.value_text = run.status;
-      // A new failure is a regression; a case that now converges is a change to accept.
       out_->findings.push_back(f);
     }
     // Values of a case without a usable solution on either side say nothing.
@@ -44,6 +44,7 @@ class Comparer {
       if (!p.free) continue;
       const auto it = params.find(p.name);
       if (it == params.end()) {
+        if (!t_.parameters.compared) continue;
         Finding f = Make(run.id, "parameter", p.name);
         f.baseline = p.value;
         f.value = std::nan("");
@@ -59,7 +60,8 @@ class Comparer {
       const std::string what = m.split + "/" + m.channel;
       const auto it = metrics.find(what);
       if (it == metrics.end()) {
-        Finding f = Make(run.id, "nrmse", what);
+        if (!t_.nrmse.compared && !t_.fit_percent.compared && !t_.r2.compared) continue;
+        Finding f = Make(run.id, "metrics", what);
         f.baseline = m.nrmse;
         f.value = std::nan("");
         f.tolerance = "the run has no metrics of this split and channel";
@@ -169,6 +171,10 @@ std::string Comparison::FullReport() const {
 
 Comparison CompareRuns(const BenchRun& baseline, const BenchRun& run, const Tolerances& tolerances,
                        const std::string& accept_command) {
+  if (baseline.suite.name != run.suite.name) {
+    throw std::invalid_argument("bench compare: the baseline is of suite '" + baseline.suite.name +
+                                "', the run of suite '" + run.suite.name + "'");
+  }
   Comparison out;
   out.accept_command = accept_command;
   Comparer comparer(tolerances, &out);

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -296,6 +297,11 @@ BenchRun LoadBenchRun(const std::string& path) {
   return ParseBenchJson(text.str(), file);
 }
 
+void SortByIndex(std::vector<CaseRecord>* records) {
+  std::stable_sort(records->begin(), records->end(),
+                   [](const CaseRecord& a, const CaseRecord& b) { return a.index < b.index; });
+}
+
 CostFunction RecordedCosts(const BenchRun& run) {
   std::map<std::string, double> seconds;
   std::vector<double> all;
@@ -331,7 +337,8 @@ BenchRun MergeShards(const std::vector<BenchRun>& shards, const std::vector<std:
                                   s.suite.name + "' (" + s.suite.path + "), " + names[0] + " of '" +
                                   first.suite.name + "' (" + first.suite.path + ")");
     }
-    for (const char* key : {"filter", "seed"}) {
+    // The same partition of the same cases: filter, seed and the costs that balanced it.
+    for (const char* key : {"filter", "seed", "costs"}) {
       if (s.Run(key) != first.Run(key)) {
         throw std::invalid_argument("bench merge: " + names[i] + " ran --" + key + " '" +
                                     s.Run(key) + "', " + names[0] + " '" + first.Run(key) + "'");
@@ -339,10 +346,12 @@ BenchRun MergeShards(const std::vector<BenchRun>& shards, const std::vector<std:
     }
     const std::string shard = s.Run("shard");
     int k = 1, n = 1;
-    char tail = 0;
-    if (!shard.empty() && std::sscanf(shard.c_str(), "%d/%d%c", &k, &n, &tail) != 2) {
-      throw std::invalid_argument("bench merge: " + names[i] + ": run.shard: expected K/N, got '" +
-                                  shard + "'");
+    if (!shard.empty()) {
+      try {
+        std::tie(k, n) = ParseShard(shard);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument("bench merge: " + names[i] + ": run.shard: " + e.what());
+      }
     }
     if (count == 0) count = n;
     if (n != count) {
@@ -394,13 +403,18 @@ BenchRun MergeShards(const std::vector<BenchRun>& shards, const std::vector<std:
     planned += std::atol(s.Run("cases_planned").c_str());
     interrupted = interrupted || s.Run("interrupted") == "true";
   }
-  std::stable_sort(merged.records.begin(), merged.records.end(),
-                   [](const CaseRecord& a, const CaseRecord& b) { return a.index < b.index; });
+  SortByIndex(&merged.records);
+  if (!interrupted && static_cast<long>(merged.records.size()) != planned) {
+    throw std::invalid_argument("bench merge: the shards planned " + std::to_string(planned) +
+                                " cases and recorded " + std::to_string(merged.records.size()) +
+                                " without an interrupt: not shards of one run");
+  }
   merged.run = {{"revision", revision},
                 {"version", first.Run("version")},
                 {"shard", ""},
                 {"filter", first.Run("filter")},
                 {"seed", first.Run("seed")},
+                {"costs", first.Run("costs")},
                 {"merged_from", from},
                 {"cases_planned", std::to_string(planned)},
                 {"wall_seconds", G(wall)},

@@ -152,16 +152,45 @@ pid_t SpawnCase(const std::vector<std::string>& command, const std::string& id,
   return pid;
 }
 
-// Reaps the processes of `exiting` that have ended.
-void ReapExited(std::vector<pid_t>* exiting) {
+// A case's process whose record is in place, not yet reaped.
+struct Exiting {
+  pid_t pid;
+  std::size_t index;  // into the records
+};
+
+// The exit code as a shell reports it: the code, or 128 + the signal.
+int ExitCode(int status) {
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// Reaps the processes of `exiting` that have ended and sets their records' exit codes; a process
+// that failed after writing its record says so in the error.
+void ReapExited(std::vector<Exiting>* exiting, std::vector<CaseRecord>* records) {
   for (std::size_t k = 0; k < exiting->size();) {
     int status = 0;
-    if (waitpid((*exiting)[k], &status, WNOHANG) != 0) {
-      exiting->erase(exiting->begin() + static_cast<std::ptrdiff_t>(k));
-    } else {
+    const Exiting& e = (*exiting)[k];
+    const pid_t w = waitpid(e.pid, &status, WNOHANG);
+    if (w == 0) {
       ++k;
+      continue;
     }
+    CaseRecord& r = (*records)[e.index];
+    if (w == e.pid) {
+      r.exit_code = ExitCode(status);
+      if (r.exit_code != 0) {
+        r.error += std::string(r.error.empty() ? "" : "; ") + "the process exited with code " +
+                   std::to_string(r.exit_code) + " after writing its record";
+      }
+    }
+    exiting->erase(exiting->begin() + static_cast<std::ptrdiff_t>(k));
   }
+}
+
+// Kills a case's process group (the case and anything it started) and reaps the case.
+void KillCase(pid_t pid, int* status) {
+  kill(-pid, SIGKILL);
+  kill(pid, SIGKILL);  // in case it had not yet made its own group
+  waitpid(pid, status, 0);
 }
 
 }  // namespace
@@ -271,13 +300,14 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
     std::error_code ec;
     fs::remove(record_path(i), ec);
     const std::string log = log_path(i);
+    const auto start = Clock::now();  // before the fork or spawn: part of the overhead
     pid_t pid = -1;
     if (options.case_command.empty()) {
       pid = ForkCase(suite, cases[i], record_path(i), log);
     } else {
       pid = SpawnCase(options.case_command, cases[i].id, record_path(i), log);
     }
-    running.push_back({i, pid, Clock::now()});
+    running.push_back({i, pid, start});
   };
   auto finish = [&](const Running& run, int status, bool timed_out, bool interrupted) {
     const std::size_t i = run.index;
@@ -315,7 +345,7 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
       const std::string tail = Tail(ReadFile(log_path(i)), 5);
       if (!tail.empty()) r.error += "; log: " + tail;
     }
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.exit_code = ExitCode(status);
     r.revision = options.revision;
     r.seconds = seconds;
     records[i] = std::move(r);
@@ -332,7 +362,20 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
              std::to_string(running.size() - 1) + ", not ok " + std::to_string(failed) +
              ", elapsed " + Fixed("%.0f", elapsed) + " s, left ~" + Fixed("%.0f", eta) + " s");
   };
-  std::vector<pid_t> exiting;  // processes of finished cases not yet reaped
+  std::vector<Exiting> exiting;  // processes of finished cases not yet reaped
+  // On an exception (a case that cannot be started, a file system error), no process of a case
+  // may outlive the call: they are killed and reaped.
+  struct Guard {
+    std::vector<Running>* running;
+    std::vector<Exiting>* exiting;
+    bool armed = true;
+    ~Guard() {
+      if (!armed) return;
+      int status = 0;
+      for (const Running& r : *running) KillCase(r.pid, &status);
+      for (const Exiting& e : *exiting) KillCase(e.pid, &status);
+    }
+  } guard{&running, &exiting};
   bool stop = false;
   while (finished < cases.size()) {
     if (!stop && options.interrupted && options.interrupted()) stop = true;
@@ -343,29 +386,30 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
     if (stop && running.empty()) break;
     for (std::size_t k = 0; k < running.size();) {
       int status = 0;
-      const pid_t w = waitpid(running[k].pid, &status, WNOHANG);
-      const bool over = SecondsSince(running[k].start) > suite.time_limit + options.kill_grace;
-      if (w == 0 && (over || stop)) {
-        kill(running[k].pid, SIGKILL);
-        waitpid(running[k].pid, &status, 0);
-        finish(running[k], status, !stop, stop);
-      } else if (w == 0 && fs::exists(record_path(running[k].index))) {
-        // The record is complete (written whole, then renamed into place): the case is done. Its
-        // process is tearing down (a few milliseconds of unmapping) and is reaped below without
-        // holding a slot.
-        exiting.push_back(running[k].pid);
-        finish(running[k], 0, false, false);
-      } else if (w == running[k].pid) {
-        finish(running[k], status, false, false);
+      const Running run = running[k];
+      const pid_t w = waitpid(run.pid, &status, WNOHANG);
+      std::error_code ec;
+      if (w == 0 && fs::exists(record_path(run.index), ec)) {
+        // The record is complete (written whole, then renamed into place): the case is done,
+        // even if its time ran out meanwhile. Its process is tearing down (a few milliseconds of
+        // unmapping) and is reaped later without holding a slot; its exit code is set then.
+        finish(run, 0, false, false);
+        exiting.push_back({run.pid, run.index});
+      } else if (w == 0 &&
+                 (stop || SecondsSince(run.start) > suite.time_limit + options.kill_grace)) {
+        KillCase(run.pid, &status);
+        finish(run, status, !stop, stop);
+      } else if (w == run.pid) {
+        finish(run, status, false, false);
       } else if (w != 0) {
-        finish(running[k], 0x7f00, false, false);  // lost child: "exited with code 127"
+        finish(run, 0x7f00, false, false);  // lost child: "exited with code 127"
       } else {
         ++k;
         continue;
       }
       running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
     }
-    ReapExited(&exiting);
+    ReapExited(&exiting, &records);
     // Polled every millisecond: the latency a finished case waits to be collected is part of
     // the runner's overhead (a 50 ms poll was a third of it on a 0.15 s case).
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -373,19 +417,29 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
   // No process of a case outlives the run: those still exiting get options.kill_grace.
   const auto wait_start = Clock::now();
   while (!exiting.empty() && SecondsSince(wait_start) < options.kill_grace) {
-    ReapExited(&exiting);
+    ReapExited(&exiting, &records);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  for (const pid_t pid : exiting) {
-    kill(pid, SIGKILL);
+  for (const Exiting& e : exiting) {
     int status = 0;
-    waitpid(pid, &status, 0);
+    KillCase(e.pid, &status);
   }
+  guard.armed = false;
   std::vector<CaseRecord> out;
   for (std::size_t i = 0; i < cases.size(); ++i) {
     if (done[i]) out.push_back(std::move(records[i]));
   }
   return out;
+}
+
+std::pair<int, int> ParseShard(const std::string& text) {
+  int k = 0, n = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%d/%d%c", &k, &n, &tail) != 2 || n < 1 || k < 1 || k > n) {
+    throw std::invalid_argument("--shard: expected K/N with 1 <= K <= N (e.g. 2/4), got '" + text +
+                                "'");
+  }
+  return {k, n};
 }
 
 std::vector<Case> SelectShard(const std::vector<Case>& cases, int k, int n,

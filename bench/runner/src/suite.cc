@@ -266,10 +266,16 @@ std::vector<Case> ExpandCases(const Suite& suite) {
           parts += (parts.empty() ? "" : ",") + v.key + "=" + Label(v.values[at[i]]);
         }
         if (!parts.empty()) c.id += "/" + parts;
+        const std::string unseeded = c.id;
         if (seeded) c.id += "/seed=" + std::to_string(seed);
+        // A glob excludes by the whole id or by the id without its seed part (so that an
+        // exclusion holds whatever the seeds, --seed included).
         bool excluded = false;
         for (std::size_t e = 0; e < suite.exclude.size(); ++e) {
-          if (est::toml_io::GlobMatch(suite.exclude[e], c.id)) excluded = used[e] = true;
+          if (est::toml_io::GlobMatch(suite.exclude[e], c.id) ||
+              est::toml_io::GlobMatch(suite.exclude[e], unseeded)) {
+            excluded = used[e] = true;
+          }
         }
         if (excluded) continue;
         c.index = cases.size();

@@ -1,7 +1,7 @@
 // Baselines and regressions (docs/bench.md, "Baselines"): a run compared with a stored baseline
 // case by case, each value within the suite's tolerances (suite.h, Tolerances).
 //
-//   const BenchRun baseline = LoadBenchRun("bench/baselines/golden_fast.json");
+//   const BenchRun baseline = LoadBenchRun("bench/baselines/golden/fast.json");
 //   const Comparison c = CompareRuns(baseline, LoadBenchRun(dir), run.suite.tolerances);
 //   std::cout << c.FullReport();
 //   return c.HasRegression() ? 4 : 0;
@@ -14,7 +14,8 @@
 // time_factor x the baseline and by more than time_min_seconds. A case of the baseline the run
 // lacks, and a status that changed, are findings; a case the baseline lacks is noted only.
 //
-// Failure behaviour: none of its own (the inputs are parsed runs).
+// Failure behaviour: CompareRuns throws std::invalid_argument when the baseline and the run are
+// of different suites (by name).
 #pragma once
 
 #include <string>
@@ -28,7 +29,8 @@ namespace graybox::bench {
 struct Finding {
   std::string case_id;
   /// "status", "missing" (in the baseline, not in the run), "new" (in the run only; not a
-  /// regression), "iterations", "cost", "parameter", "nrmse", "fit_percent", "r2", "seconds".
+  /// regression), "iterations", "cost", "parameter", "nrmse", "fit_percent", "r2", "metrics" (a
+  /// split and channel the run has no metrics of), "seconds".
   std::string kind;
   /// What exactly: the parameter's name, "<split>/<channel>" for the metrics, "" otherwise.
   std::string what;
@@ -46,7 +48,8 @@ struct Comparison {
   std::string accept_command;
 
   bool HasRegression() const;
-  /// One line: "compare: 12 cases, 340 values: 2 outside their tolerances, 1 new failure".
+  /// One line: "compare: 12 cases, 340 values: all within their tolerances", or the counts of
+  /// values outside them, statuses changed, time regressions, cases missing and new cases.
   std::string BriefReport() const;
   /// Every finding, one line each (case, metric, baseline -> value, difference, relative
   /// difference, tolerance), then the brief line and the command to accept.

@@ -35,9 +35,10 @@ struct BenchRun {
   /// The suite as the run read it: name, description, path, time_limit,
   /// relative_perturbation, seeds and tolerances (problems and variations are not kept).
   Suite suite;
-  /// "command_line", "revision", "version", "shard" ("K/N" or ""), "filter", "jobs",
-  /// "cases_planned" (cases the run set out to run), "wall_seconds", "interrupted"
-  /// ("true"/"false"); merged runs add "merged_from".
+  /// "command_line", "revision", "version", "shard" ("K/N" or ""), "filter", "seed" (--seed, or
+  /// ""), "costs" (--costs, or ""), "jobs", "cases_planned" (cases the run set out to run),
+  /// "wall_seconds", "interrupted" ("true"/"false"); resumed runs add "resumed_from", merged
+  /// runs "merged_from", baseline files "baseline_of".
   std::vector<std::pair<std::string, std::string>> run;
   Machine machine;
   std::vector<CaseRecord> records;  // by Case::index
@@ -64,6 +65,9 @@ std::string BenchCsv(const std::vector<CaseRecord>& records);
 /// slowest cases).
 std::string BenchMarkdown(const Suite& suite, const std::vector<CaseRecord>& records);
 
+/// Orders records by Case::index (stable).
+void SortByIndex(std::vector<CaseRecord>* records);
+
 /// Costs for SelectShard from an earlier run or a baseline: a case's recorded `seconds` (by id);
 /// a case it lacks, or one without a finite time, costs the median of the recorded times (1 when
 /// none is).
@@ -72,7 +76,8 @@ CostFunction RecordedCosts(const BenchRun& run);
 /// Shard outputs (`--shard K/N` runs; `names` label them in messages) joined into the run the
 /// whole suite would have given: the records of every shard ordered by case index. Refused
 /// (std::invalid_argument) when the runs are of different suites, filters or shard counts,
-/// when a shard is missing or given twice, or when a case appears twice. The merged run's
+/// when a shard is missing, given twice or out of range, when a case appears twice, or when the
+/// shards recorded fewer cases than they planned without an interrupt. The merged run's
 /// metadata: "merged_from" (the names), "shard" empty, "wall_seconds" the longest shard's,
 /// "cases_planned" the sum, "interrupted" when any shard was, "revision" the shards' (joined
 /// with " / " when they differ).

@@ -61,12 +61,15 @@ struct CaseRecord {
   std::string problem_name;            // [problem] name
   std::vector<std::string> variation;  // "key = value" per override
   unsigned seed = 1;
-  std::string status;         // see the file comment
-  int exit_code = 0;          // of the case's process (RunSuite); 0 in RunCase
-  std::string error;          // why, for error / crashed / timed_out / failed
-  double seconds = 0.0;       // wall time of the case's process (RunSuite); RunCase: case_seconds
-  double case_seconds = 0.0;  // wall time of RunCase (problem, data, fit); seconds - case_seconds
-                              // is the runner's overhead (process start, suite, record)
+  std::string status;  // see the file comment
+  int exit_code = 0;   // of the case's process (RunSuite; 128 + signal when killed); 0 in RunCase
+  std::string error;   // why, for error / crashed / timed_out / failed
+  /// RunSuite: wall time from just before the case's process started until its record was in
+  /// place (or the process ended without one); RunCase: case_seconds.
+  double seconds = 0.0;
+  /// Wall time of RunCase (problem, data, fit); seconds - case_seconds is the runner's overhead
+  /// (the fork or program start, the record, the collection).
+  double case_seconds = 0.0;
   std::string method, solver, solver_status;
   /// The formulation's options as the fit used them (estimators::FitResult::formulation:
   /// method, segment length, scheme, decimation, ...).
@@ -112,6 +115,9 @@ struct RunOptions {
 /// Every case of `cases` in its own process (file comment); the records in the cases' order.
 std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& cases,
                                  const RunOptions& options);
+
+/// "K/N" (1 <= K <= N) as {K, N}; throws std::invalid_argument quoting the text otherwise.
+std::pair<int, int> ParseShard(const std::string& text);
 
 /// A case's estimated cost for SelectShard.
 using CostFunction = std::function<double(const Case&)>;

@@ -12,6 +12,7 @@
 // reports time per point; ratios are formed from one run (see docs/performance.md).
 #include <benchmark/benchmark.h>
 
+#include <filesystem>
 #include <random>
 #include <vector>
 
@@ -23,6 +24,7 @@ namespace {
 using graybox::expr::CompiledFunction;
 using graybox::expr::Expr;
 using graybox::expr::Function;
+using graybox::expr::JitOptions;
 using graybox::expr::Workspace;
 namespace models = graybox::models;
 
@@ -237,6 +239,33 @@ void BM_KukaFd_BuildFunction(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_KukaFd_BuildFunction)->Unit(benchmark::kMillisecond);
+
+// Just-in-time compilation of the forward dynamics (and of its 6x12 Jacobian): compiled afresh
+// (a new, empty cache folder per iteration) against loaded from the disk cache
+// (docs/performance.md, "Compiled code cache").
+void RunJit(benchmark::State& state, const Function& f) {
+  const bool cached = state.range(0) == 1;
+  const std::filesystem::path root =
+      std::filesystem::temp_directory_path() / "graybox_kuka_jit_bench";
+  JitOptions options;
+  int run = 0;
+  options.cache_dir = (root / "warm").string();
+  if (cached) CompiledFunction warm(f, options);  // fills the cache
+  for (auto _ : state) {
+    if (!cached) options.cache_dir = (root / std::to_string(run++)).string();
+    const CompiledFunction cf(f, options);
+    if (!cf.IsNative() || cf.FromCache() != cached) {
+      state.SkipWithError(cf.IsNative() ? "unexpected cache state" : cf.FallbackReason().c_str());
+      break;
+    }
+  }
+  std::filesystem::remove_all(root);
+  state.SetLabel(cached ? "from the cache" : "compiled");
+}
+void BM_KukaFd_Jit(benchmark::State& state) { RunJit(state, Kuka().fd); }
+BENCHMARK(BM_KukaFd_Jit)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
+void BM_KukaFdJacobian_Jit(benchmark::State& state) { RunJit(state, Kuka().jacobian); }
+BENCHMARK(BM_KukaFdJacobian_Jit)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 

@@ -5,8 +5,10 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -236,11 +238,91 @@ std::string GenerateC(const Function& f, const std::string& symbol) {
   return os.str();
 }
 
+namespace {
+
+// 64-bit FNV-1a: a stable hash of the cache key (the same on every run and machine).
+std::uint64_t Fnv1a(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ULL;
+  for (const char c : text) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+// The output of a command (its first lines), or "" when it fails.
+std::string CommandOutput(const std::string& command) {
+  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
+  if (pipe == nullptr) return "";
+  std::string out;
+  char buf[256];
+  while (std::fgets(buf, sizeof buf, pipe) != nullptr && out.size() < 4096) out += buf;
+  return pclose(pipe) == 0 ? out : "";
+}
+
+// The cache folder of the options (JitOptions::cache_dir), or "" for none.
+std::string CacheFolder(const JitOptions& options) {
+  if (!options.use_cache) return "";
+  if (!options.cache_dir.empty()) return options.cache_dir;
+  if (const char* d = std::getenv("GRAYBOX_JIT_CACHE"); d && *d) return d;
+  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d)
+    return std::string(d) + "/graybox/jit";
+  if (const char* d = std::getenv("HOME"); d && *d) return std::string(d) + "/.cache/graybox/jit";
+  return "";
+}
+
+}  // namespace
+
+bool CompiledFunction::Load(const std::string& library) {
+  void* handle = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr) {
+    const char* err = dlerror();
+    fallback_reason_ = std::string("dlopen failed: ") + (err ? err : "unknown error");
+    return false;
+  }
+  library_ = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
+  native_ = reinterpret_cast<NativeFn>(dlsym(handle, "graybox_function"));
+  if (native_ == nullptr) {
+    fallback_reason_ = "dlsym found no graybox_function in " + library;
+    library_.reset();
+    return false;
+  }
+  fallback_reason_.clear();
+  return true;
+}
+
 CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options) : function_(f) {
   for (int j = 0; j < f.NumOutputs(); ++j) output_sizes_.push_back(f.OutputSize(j));
   const char* cc_env = std::getenv("CC");
   const std::string compiler =
       !options.compiler.empty() ? options.compiler : (cc_env && *cc_env ? cc_env : "cc");
+  const std::string source = GenerateC(f, "graybox_function");
+  // The cache: a hit loads the library and is done.
+  // keep_files asks for this compilation's files: no cache then.
+  std::string cache = options.keep_files ? std::string() : CacheFolder(options);
+  if (!cache.empty()) {
+    const std::string version = CommandOutput(compiler + " -dumpfullversion -dumpmachine");
+    std::error_code ec;
+    std::filesystem::create_directories(cache, ec);
+    if (ec || version.empty()) {
+      cache.clear();  // no cache folder, or a compiler that does not say its version: compile
+    } else {
+      std::filesystem::permissions(cache, std::filesystem::perms::owner_all,
+                                   std::filesystem::perm_options::replace, ec);
+      char name[32];
+      std::snprintf(name, sizeof name, "%016llx.so",
+                    static_cast<unsigned long long>(
+                        Fnv1a(source + '\n' + compiler + '\n' + options.flags + '\n' + version)));
+      cache_file_ = cache + "/" + name;
+      if (std::filesystem::exists(cache_file_, ec)) {
+        if (Load(cache_file_)) {
+          from_cache_ = true;
+          return;
+        }
+        std::filesystem::remove(cache_file_, ec);  // unloadable: compiled again below
+      }
+    }
+  }
   std::string dir = options.work_dir;
   bool own_dir = false;
   if (dir.empty()) {
@@ -260,7 +342,7 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
   const std::string log = dir + "/compile.log";
   {
     std::ofstream out(src);
-    out << GenerateC(f, "graybox_function");
+    out << source;
     if (!out) {
       fallback_reason_ = "cannot write " + src;
       return;
@@ -275,16 +357,13 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
     ss << in.rdbuf();
     fallback_reason_ = "compiler command failed (exit status " + std::to_string(rc) + "): " + cmd +
                        "\n" + Trim(ss.str(), 10);
-  } else {
-    void* handle = dlopen(lib.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (handle == nullptr) {
-      const char* err = dlerror();
-      fallback_reason_ = std::string("dlopen failed: ") + (err ? err : "unknown error");
-    } else {
-      library_ = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
-      native_ = reinterpret_cast<NativeFn>(dlsym(handle, "graybox_function"));
-      if (native_ == nullptr) fallback_reason_ = "dlsym found no graybox_function";
-    }
+  } else if (Load(lib) && !cache_file_.empty()) {
+    // Into the cache under a temporary name, then renamed: a reader sees all of it or nothing.
+    std::error_code ec;
+    const std::string tmp = cache_file_ + "." + std::to_string(getpid()) + ".tmp";
+    std::filesystem::copy_file(lib, tmp, std::filesystem::copy_options::overwrite_existing, ec);
+    if (!ec) std::filesystem::rename(tmp, cache_file_, ec);
+    if (ec) std::filesystem::remove(tmp, ec);
   }
   if (!options.keep_files) {
     std::remove(src.c_str());

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <random>
@@ -225,6 +226,59 @@ TEST(CompiledFunction, TrivialFunctionsCompile) {
   const CompiledFunction native_empty{Function()};
   ASSERT_TRUE(native_empty.IsNative()) << native_empty.FallbackReason();
   EXPECT_TRUE(native_empty({}).empty());
+}
+
+// The disk cache: the second CompiledFunction of the same function and flags loads the library
+// the first one compiled; other flags compile anew; a cached file that does not load is
+// compiled again.
+TEST(CompiledFunction, ASecondCompileOfTheSameFunctionComesFromTheCache) {
+  TempDir cache;
+  ASSERT_FALSE(cache.path().empty());
+  const std::string folder = cache.path() + "/jit";
+  const Expr x = Expr::Symbol("x"), y = Expr::Symbol("y");
+  const Function f("f", {{"in", {x, y}}}, {{"out", {x * y + sin(x), exp(y) / (1.0 + x * x)}}});
+  JitOptions options;
+  options.cache_dir = folder;
+  const CompiledFunction first(f, options);
+  ASSERT_TRUE(first.IsNative()) << first.FallbackReason();
+  EXPECT_FALSE(first.FromCache());
+  ASSERT_FALSE(first.CacheFile().empty());
+  EXPECT_TRUE(std::filesystem::exists(first.CacheFile()));
+  const CompiledFunction second(f, options);
+  ASSERT_TRUE(second.IsNative()) << second.FallbackReason();
+  EXPECT_TRUE(second.FromCache());
+  EXPECT_EQ(second.CacheFile(), first.CacheFile());
+  const Eigen::Vector2d point(0.3, -1.2);
+  EXPECT_EQ(second({point})[0], first({point})[0]);
+  // Other flags: another entry, compiled.
+  JitOptions o1 = options;
+  o1.flags = "-O1 -ffp-contract=off";
+  const CompiledFunction other(f, o1);
+  ASSERT_TRUE(other.IsNative()) << other.FallbackReason();
+  EXPECT_FALSE(other.FromCache());
+  EXPECT_NE(other.CacheFile(), first.CacheFile());
+  // A damaged entry (here: planted in another cache folder under the entry's name, a file this
+  // process has not loaded) is compiled again and replaced.
+  const std::string other_folder = cache.path() + "/jit2";
+  std::filesystem::create_directories(other_folder);
+  const std::string planted =
+      other_folder + "/" + std::filesystem::path(first.CacheFile()).filename().string();
+  { std::ofstream(planted) << "not a library"; }
+  JitOptions o2 = options;
+  o2.cache_dir = other_folder;
+  const CompiledFunction repaired(f, o2);
+  ASSERT_TRUE(repaired.IsNative()) << repaired.FallbackReason();
+  EXPECT_FALSE(repaired.FromCache());
+  EXPECT_GT(std::filesystem::file_size(planted), 100u);  // the compiled library replaced it
+  // Without the cache: compiled, nothing cached.
+  JitOptions none = options;
+  none.use_cache = false;
+  const CompiledFunction uncached(f, none);
+  EXPECT_TRUE(uncached.IsNative());
+  EXPECT_FALSE(uncached.FromCache());
+  EXPECT_TRUE(uncached.CacheFile().empty());
+  std::filesystem::remove_all(folder);
+  std::filesystem::remove_all(other_folder);
 }
 
 TEST(CompiledFunction, ThreadsShareOneNativeFunction) {

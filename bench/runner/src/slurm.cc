@@ -196,9 +196,10 @@ SlurmScripts SaveSlurmScripts(const SlurmOptions& o) {
   const SlurmScripts texts = WriteSlurmScripts(o);
   const fs::path dir = fs::path(o.out_dir) / "slurm";
   std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!ec) fs::create_directories(fs::path(o.out_dir) / "shards", ec);
-  if (ec) throw std::runtime_error("cannot create '" + dir.string() + "': " + ec.message());
+  for (const fs::path& folder : {dir, fs::path(o.out_dir) / "shards"}) {
+    fs::create_directories(folder, ec);
+    if (ec) throw std::runtime_error("cannot create '" + folder.string() + "': " + ec.message());
+  }
   SlurmScripts paths{(dir / "bench_array.sh").string(), (dir / "bench_merge.sh").string()};
   for (const auto& [path, text] : {std::pair{paths.array_script, texts.array_script},
                                    std::pair{paths.merge_script, texts.merge_script}}) {

@@ -11,7 +11,12 @@
 // with dlopen and calls it. When no compiler is found, or compiling or loading fails, it falls back
 // to the tape and says why (IsNative() is false, FallbackReason() explains); the results are the
 // same either way. Compilation takes seconds for large functions: compile once, evaluate many
-// times.
+// times. The shared objects are kept in a cache folder under a 64-bit FNV-1a hash of the
+// generated source, the compiler command, its flags and the compiler's version
+// (`<compiler> -dumpfullversion -dumpmachine`), so a second run of the same function loads the
+// library instead of compiling it (FromCache()); a cached file that does not load is compiled
+// again. Entries are written under a temporary name and renamed, so processes that share a cache
+// never load a half-written library.
 #pragma once
 
 #include <memory>
@@ -37,8 +42,13 @@ struct JitOptions {
   /// Directory for the generated source and library; empty means a fresh one under $TMPDIR or
   /// /tmp, removed after loading.
   std::string work_dir;
-  /// Keep the generated files (for inspection).
+  /// Keep the generated files (for inspection); the cache is not used then.
   bool keep_files = false;
+  /// Reuse compiled libraries across runs (file comment).
+  bool use_cache = true;
+  /// The cache folder; empty means $GRAYBOX_JIT_CACHE, else $XDG_CACHE_HOME/graybox/jit, else
+  /// $HOME/.cache/graybox/jit (no cache when none is set). Created (mode 0700) when missing.
+  std::string cache_dir;
 };
 
 class CompiledFunction {
@@ -51,6 +61,10 @@ class CompiledFunction {
   /// empty when native.
   const std::string& FallbackReason() const { return fallback_reason_; }
   const Function& function() const { return function_; }
+  /// True when the native code was loaded from the cache, without compiling.
+  bool FromCache() const { return from_cache_; }
+  /// The cached library's path; empty without a cache.
+  const std::string& CacheFile() const { return cache_file_; }
 
   /// Same contract as Function::Evaluate; `ws` must come from function().MakeWorkspace() (used
   /// only by the fallback). Allocation-free, thread-safe with one workspace per thread.
@@ -65,6 +79,10 @@ class CompiledFunction {
   NativeFn native_ = nullptr;
   std::vector<int> output_sizes_;
   std::string fallback_reason_;
+  bool from_cache_ = false;
+  std::string cache_file_;
+
+  bool Load(const std::string& library);
 };
 
 }  // namespace graybox::expr

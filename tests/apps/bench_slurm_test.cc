@@ -3,8 +3,11 @@
 // run on a real single-node cluster is tools/slurm_test.sh (docs/slurm.md).
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "graybox/bench/slurm.h"
 #include "test_util.h"
@@ -68,6 +71,35 @@ TEST(BenchSlurm, TheArrayAndMergeScriptsNameEveryShard) {
   EXPECT_TRUE(Contains(p, "#SBATCH --array=1-3\n")) << p;
   EXPECT_FALSE(Contains(p, "--partition")) << p;
   EXPECT_FALSE(Contains(p, "--time")) << p;
+}
+
+// The array script run by bash as an array task (SLURM_ARRAY_TASK_ID set) with a stub for graybox
+// that writes its arguments one per line: each path and the hostile filter arrive as one word.
+TEST(BenchSlurm, TheArrayScriptPassesEveryArgumentAsOneWord) {
+  ScratchDir dir;
+  std::filesystem::create_directories(dir.path() / "gray box");
+  const std::string stub = (dir.path() / "gray box" / "graybox").string();
+  const std::string args_file = (dir.path() / "args.txt").string();
+  WriteText(stub,
+            "#!/bin/sh\nfor a in \"$@\"; do printf '%s\\n' \"$a\"; done > '" + args_file + "'\n");
+  std::filesystem::permissions(stub, std::filesystem::perms::owner_all);
+  SlurmOptions o = Options();
+  o.graybox = stub;
+  o.out_dir = (dir.path() / "runs").string();
+  o.seed = 9;
+  const std::string script = (dir.path() / "array.sh").string();
+  WriteText(script, WriteSlurmScripts(o).array_script);
+  std::filesystem::create_directories(dir.path() / "runs" / "shards" / "2");
+  ASSERT_EQ(std::system(("SLURM_ARRAY_TASK_ID=2 bash '" + script + "'").c_str()), 0);
+  std::vector<std::string> args;
+  std::istringstream lines(ReadText(args_file));
+  for (std::string line; std::getline(lines, line);) args.push_back(line);
+  const std::vector<std::string> expected = {
+      "bench",  o.suite,  "--shard", "2/3",     "--jobs", "2",     "--filter",
+      o.filter, "--seed", "9",       "--costs", o.costs,  "--out", o.out_dir + "/shards/2"};
+  EXPECT_EQ(args, expected);
+  // The task removed its shard folder of an earlier run before starting.
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "runs" / "shards" / "2"));
 }
 
 TEST(BenchSlurm, OptionsAnSbatchLineCannotHoldAreRefusedByName) {

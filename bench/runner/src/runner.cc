@@ -195,6 +195,51 @@ void KillCase(pid_t pid, int* status) {
 
 }  // namespace
 
+namespace {
+
+// The record of a case whose process ended or was killed: the one it wrote, or one that says why
+// there is none (interrupted, timed out, or crashed with its exit code or signal and the tail of
+// its log).
+CaseRecord EndedCaseRecord(const Suite& suite, const Case& c, const std::string& record,
+                           const std::string& log, int status, bool timed_out, bool interrupted,
+                           double seconds, double kill_grace) {
+  CaseRecord r;
+  bool have_record = false;
+  if (!timed_out && !interrupted && WIFEXITED(status) && fs::exists(record)) {
+    try {
+      r = ParseCaseRecordJson(ReadFile(record));
+      have_record = true;
+    } catch (const std::exception& e) {
+      r.error = std::string("unreadable record: ") + e.what();
+    }
+  }
+  if (!have_record) {
+    const std::string previous = r.error;
+    r = RecordOf(suite, c);
+    if (interrupted) {
+      r.status = "interrupted";
+      r.error = "stopped by an interrupt after " + Fixed("%.1f", seconds) + " s";
+    } else if (timed_out) {
+      r.status = "timed_out";
+      r.error = "killed after " + Fixed("%.1f", seconds) + " s (time_limit " +
+                Fixed("%g", suite.time_limit) + " s + " + Fixed("%g", kill_grace) + " s)";
+    } else {
+      r.status = "crashed";
+      r.error = WIFSIGNALED(status) ? "killed by signal " + std::to_string(WTERMSIG(status)) +
+                                          " (" + strsignal(WTERMSIG(status)) + ")"
+                                    : "exited with code " + std::to_string(WEXITSTATUS(status)) +
+                                          " without a record";
+      if (!previous.empty()) r.error += "; " + previous;
+    }
+    r.case_seconds = std::numeric_limits<double>::quiet_NaN();
+    const std::string tail = Tail(ReadFile(log), 5);
+    if (!tail.empty()) r.error += "; log: " + tail;
+  }
+  return r;
+}
+
+}  // namespace
+
 CaseRecord RecordOf(const Suite& suite, const Case& c) {
   CaseRecord r;
   r.suite = suite.name;
@@ -313,38 +358,8 @@ std::vector<CaseRecord> RunSuite(const Suite& suite, const std::vector<Case>& ca
     const std::size_t i = run.index;
     const double seconds = SecondsSince(run.start);
     busy_seconds += seconds;
-    CaseRecord r;
-    bool have_record = false;
-    if (!timed_out && !interrupted && WIFEXITED(status) && fs::exists(record_path(i))) {
-      try {
-        r = ParseCaseRecordJson(ReadFile(record_path(i)));
-        have_record = true;
-      } catch (const std::exception& e) {
-        r.error = std::string("unreadable record: ") + e.what();
-      }
-    }
-    if (!have_record) {
-      const std::string previous = r.error;
-      r = RecordOf(suite, cases[i]);
-      if (interrupted) {
-        r.status = "interrupted";
-        r.error = "stopped by an interrupt after " + Fixed("%.1f", seconds) + " s";
-      } else if (timed_out) {
-        r.status = "timed_out";
-        r.error = "killed after " + Fixed("%.1f", seconds) + " s (time_limit " +
-                  Fixed("%g", suite.time_limit) + " s + " + Fixed("%g", options.kill_grace) + " s)";
-      } else {
-        r.status = "crashed";
-        r.error = WIFSIGNALED(status) ? "killed by signal " + std::to_string(WTERMSIG(status)) +
-                                            " (" + strsignal(WTERMSIG(status)) + ")"
-                                      : "exited with code " + std::to_string(WEXITSTATUS(status)) +
-                                            " without a record";
-        if (!previous.empty()) r.error += "; " + previous;
-      }
-      r.case_seconds = std::numeric_limits<double>::quiet_NaN();
-      const std::string tail = Tail(ReadFile(log_path(i)), 5);
-      if (!tail.empty()) r.error += "; log: " + tail;
-    }
+    CaseRecord r = EndedCaseRecord(suite, cases[i], record_path(i), log_path(i), status, timed_out,
+                                   interrupted, seconds, options.kill_grace);
     r.exit_code = ExitCode(status);
     r.revision = options.revision;
     r.seconds = seconds;

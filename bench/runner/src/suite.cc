@@ -94,6 +94,35 @@ Tolerance ParseTolerance(const Section& s, const std::string& key) {
   return tol;
 }
 
+// The [tolerances] table: a metric's table replaces its default whole, the others keep theirs.
+Tolerances ParseTolerances(const Section& t) {
+  t.Allow({"nrmse", "fit_percent", "r2", "cost", "iterations", "parameters", "time"});
+  Tolerances tol;
+  for (const auto& [key, field] :
+       std::vector<std::pair<std::string, Tolerance*>>{{"nrmse", &tol.nrmse},
+                                                       {"fit_percent", &tol.fit_percent},
+                                                       {"r2", &tol.r2},
+                                                       {"cost", &tol.cost},
+                                                       {"iterations", &tol.iterations},
+                                                       {"parameters", &tol.parameters}}) {
+    if (t.Has(key)) *field = ParseTolerance(t, key);
+  }
+  if (const std::optional<Section> time = t.Sub("time")) {
+    time->Allow({"factor", "min_seconds"});
+    tol.time_factor = time->Number("factor").value_or(tol.time_factor);
+    if (!(tol.time_factor >= 1.0)) {
+      time->Fail("factor",
+                 "'factor': expected a number >= 1, got " + est::toml_io::Format(tol.time_factor));
+    }
+    tol.time_min_seconds = time->Number("min_seconds").value_or(tol.time_min_seconds);
+    if (!(tol.time_min_seconds >= 0.0)) {
+      time->Fail("min_seconds", "'min_seconds': expected a number >= 0, got " +
+                                    est::toml_io::Format(tol.time_min_seconds));
+    }
+  }
+  return tol;
+}
+
 }  // namespace
 
 bool Tolerance::Admits(double baseline, double value) const {
@@ -181,32 +210,8 @@ Suite ParseSuite(const std::string& text, const std::string& path) {
       }
     }
   }
-  if (const std::optional<Section> t = top.Sub("tolerances")) {
-    t->Allow({"nrmse", "fit_percent", "r2", "cost", "iterations", "parameters", "time"});
-    Tolerances& tol = suite.tolerances;
-    for (const auto& [key, field] :
-         std::vector<std::pair<std::string, Tolerance*>>{{"nrmse", &tol.nrmse},
-                                                         {"fit_percent", &tol.fit_percent},
-                                                         {"r2", &tol.r2},
-                                                         {"cost", &tol.cost},
-                                                         {"iterations", &tol.iterations},
-                                                         {"parameters", &tol.parameters}}) {
-      if (t->Has(key)) *field = ParseTolerance(*t, key);
-    }
-    if (const std::optional<Section> time = t->Sub("time")) {
-      time->Allow({"factor", "min_seconds"});
-      tol.time_factor = time->Number("factor").value_or(tol.time_factor);
-      if (!(tol.time_factor >= 1.0)) {
-        time->Fail("factor", "'factor': expected a number >= 1, got " +
-                                 est::toml_io::Format(tol.time_factor));
-      }
-      tol.time_min_seconds = time->Number("min_seconds").value_or(tol.time_min_seconds);
-      if (!(tol.time_min_seconds >= 0.0)) {
-        time->Fail("min_seconds", "'min_seconds': expected a number >= 0, got " +
-                                      est::toml_io::Format(tol.time_min_seconds));
-      }
-    }
-  }
+  if (const std::optional<Section> t = top.Sub("tolerances"))
+    suite.tolerances = ParseTolerances(*t);
   return suite;
 }
 

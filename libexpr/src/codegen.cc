@@ -260,6 +260,18 @@ std::string CommandOutput(const std::string& command) {
   return pclose(pipe) == 0 ? out : "";
 }
 
+// The processor as /proc/cpuinfo names it (model and instruction-set flags): code compiled with
+// -march=native on one machine must not be loaded on another that shares the cache folder.
+std::string ProcessorIdentity() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string model, flags;
+  for (std::string line; std::getline(in, line) && (model.empty() || flags.empty());) {
+    if (model.empty() && line.rfind("model name", 0) == 0) model = line;
+    if (flags.empty() && line.rfind("flags", 0) == 0) flags = line;
+  }
+  return model + '\n' + flags;
+}
+
 // The cache folder of the options (JitOptions::cache_dir), or "" for none.
 std::string CacheFolder(const JitOptions& options) {
   if (!options.use_cache) return "";
@@ -310,9 +322,10 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
       std::filesystem::permissions(cache, std::filesystem::perms::owner_all,
                                    std::filesystem::perm_options::replace, ec);
       char name[32];
-      std::snprintf(name, sizeof name, "%016llx.so",
-                    static_cast<unsigned long long>(
-                        Fnv1a(source + '\n' + compiler + '\n' + options.flags + '\n' + version)));
+      std::snprintf(
+          name, sizeof name, "%016llx.so",
+          static_cast<unsigned long long>(Fnv1a(source + '\n' + compiler + '\n' + options.flags +
+                                                '\n' + version + '\n' + ProcessorIdentity())));
       cache_file_ = cache + "/" + name;
       if (std::filesystem::exists(cache_file_, ec)) {
         if (Load(cache_file_)) {

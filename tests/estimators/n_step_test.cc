@@ -73,6 +73,22 @@ TEST(NStep, BatchedThreadedEqualsSequentialDefinition) {
     EXPECT_NEAR(batched.step_nrms[s], sequential.step_nrms[s], kSameArithmetic * sequential.nrms);
   }
   EXPECT_GT(batched.nrms, 0.0);
+  // The generated code (the default where a compiler is) and the batched tape give the same
+  // numbers; the result says which ran.
+  EXPECT_EQ(batched.evaluation, "generated code");
+  options.generated_code = false;
+  const NStepResult tape = NStepNrmsSimulated(model, x, u, p, 0.004, options);
+  EXPECT_EQ(tape.evaluation, "tape: generated code not asked for (generated_code = false)");
+  EXPECT_NEAR(tape.nrms, batched.nrms, kSameArithmetic * tape.nrms);
+  for (Eigen::Index s = 0; s < tape.step_nrms.size(); ++s) {
+    EXPECT_NEAR(tape.step_nrms[s], batched.step_nrms[s], kSameArithmetic * tape.nrms);
+  }
+  // Without a compiler: the tape, and why.
+  options.generated_code = true;
+  options.jit.compiler = "/nonexistent/cc";
+  const NStepResult fallback = NStepNrmsSimulated(model, x, u, p, 0.004, options);
+  EXPECT_EQ(fallback.evaluation.rfind("tape: no generated code: ", 0), 0u) << fallback.evaluation;
+  EXPECT_NEAR(fallback.nrms, tape.nrms, kSameArithmetic * tape.nrms);
 }
 
 // A mass pushed against viscous friction (states load.q, load.qd; input force) with the given

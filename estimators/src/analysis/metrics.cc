@@ -412,6 +412,7 @@ std::string NStepResult::BriefReport() const {
   }
   os << " over " << starts.size() << " starts, " << channels.size()
      << (channels.size() == 1 ? " channel" : " channels");
+  if (!evaluation.empty()) os << " (" << evaluation << ")";
   return os.str();
 }
 

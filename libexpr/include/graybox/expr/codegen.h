@@ -12,11 +12,12 @@
 // to the tape and says why (IsNative() is false, FallbackReason() explains); the results are the
 // same either way. Compilation takes seconds for large functions: compile once, evaluate many
 // times. The shared objects are kept in a cache folder under a 64-bit FNV-1a hash of the
-// generated source, the compiler command, its flags and the compiler's version
-// (`<compiler> -dumpfullversion -dumpmachine`), so a second run of the same function loads the
-// library instead of compiling it (FromCache()); a cached file that does not load is compiled
-// again. Entries are written under a temporary name and renamed, so processes that share a cache
-// never load a half-written library.
+// generated source, the compiler command, its flags, the compiler's version
+// (`<compiler> -dumpfullversion -dumpmachine`) and the processor (/proc/cpuinfo's model name and
+// flags: code built with -march=native is never loaded on another machine sharing the folder),
+// so a second run of the same function loads the library instead of compiling it
+// (FromCache()); a cached file that does not load is compiled again. Entries are written under a
+// temporary name and renamed, so processes that share a cache never load a half-written library.
 #pragma once
 
 #include <memory>

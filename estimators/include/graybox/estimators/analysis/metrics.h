@@ -216,6 +216,9 @@ struct NStepResult {
   std::vector<std::string> channel_names;  // their names (empty when no names were given)
   std::vector<int> starts;                 // the start samples used
   int steps = 0;
+  /// How the simulation was evaluated (NStepNrmsSimulated): "generated code" or "tape: <why the
+  /// generated code was not used>"; empty for NStepNrms.
+  std::string evaluation;
   /// The NRMS at step k alone (1 <= k <= steps): step_nrms(k - 1). NrmsAtStep(steps) is the
   /// "NRMS at step N", not to be confused with nrms. Throws std::out_of_range otherwise.
   double NrmsAtStep(int k) const;

@@ -6,17 +6,22 @@
 // by default, an implicit scheme for stiff models). The name says "simulated" to set it apart from
 // NStepNrms of metrics.h, which scores predictions the caller computed.
 //
-// The starts are independent, so they are simulated together: each step is one batched tape
-// evaluation over a chunk of starts (SIMD lanes, see Function::EvaluateBatch), chunks are spread
-// over threads, each with its own workspace. Predictions are never stored for all starts at once
-// (14850 starts x 150 steps x 12 states would be 214 MB); each chunk is scored and the sums are
-// combined, which gives exactly the eta_N of NStepNrms over all starts.
+// The starts are independent: chunks of starts are spread over threads. With a C compiler (the
+// default, options.generated_code) the step is generated C compiled at run time
+// (expr::CompiledFunction, cached on disk across runs) and each start is simulated on its own;
+// otherwise, or when compiling fails, each step is one batched tape evaluation over the chunk
+// (SIMD lanes, see Function::EvaluateBatch), each thread with its own workspace. Both give the
+// same numbers (the generated code evaluates the tape's operations with the same formulas);
+// NStepResult::evaluation says which ran and, for the tape, why. Predictions are never stored for
+// all starts at once (14850 starts x 150 steps x 12 states would be 214 MB); each chunk is scored
+// and the sums are combined, which gives exactly the eta_N of NStepNrms over all starts.
 #pragma once
 
 #include <Eigen/Core>
 
 #include "graybox/estimators/analysis/metrics.h"
 #include "graybox/estimators/integrators/integrators.h"
+#include "graybox/expr/codegen.h"
 #include "graybox/models/model.h"
 
 namespace graybox::estimators {
@@ -30,6 +35,9 @@ struct NStepSimulationOptions {
   FixedStepOptions step;  // the one-step map: scheme, substeps per sample, Newton iterations
   int num_threads = 2;    // 0 means std::thread::hardware_concurrency()
   int chunk = 1024;       // starts simulated together
+  /// Evaluate the step as generated C when a compiler is present (else the batched tape).
+  bool generated_code = true;
+  expr::JitOptions jit;  // compiler, flags and cache of the generated code
   /// Throws std::invalid_argument naming the invalid fields.
   void Validate() const;
 };

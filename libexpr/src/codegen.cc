@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -315,12 +316,16 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
   if (!cache.empty()) {
     const std::string version = CommandOutput(compiler + " -dumpfullversion -dumpmachine");
     std::error_code ec;
-    std::filesystem::create_directories(cache, ec);
+    const bool existed = std::filesystem::is_directory(cache, ec);
+    if (!existed) std::filesystem::create_directories(cache, ec);
     if (ec || version.empty()) {
       cache.clear();  // no cache folder, or a compiler that does not say its version: compile
     } else {
-      std::filesystem::permissions(cache, std::filesystem::perms::owner_all,
-                                   std::filesystem::perm_options::replace, ec);
+      // A folder this creates is the user's alone; one that existed keeps its permissions.
+      if (!existed) {
+        std::filesystem::permissions(cache, std::filesystem::perms::owner_all,
+                                     std::filesystem::perm_options::replace, ec);
+      }
       char name[32];
       std::snprintf(
           name, sizeof name, "%016llx.so",
@@ -373,7 +378,9 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
   } else if (Load(lib) && !cache_file_.empty()) {
     // Into the cache under a temporary name, then renamed: a reader sees all of it or nothing.
     std::error_code ec;
-    const std::string tmp = cache_file_ + "." + std::to_string(getpid()) + ".tmp";
+    static std::atomic<unsigned> counter{0};  // threads of one process compiling the same code
+    const std::string tmp =
+        cache_file_ + "." + std::to_string(getpid()) + "." + std::to_string(counter++) + ".tmp";
     std::filesystem::copy_file(lib, tmp, std::filesystem::copy_options::overwrite_existing, ec);
     if (!ec) std::filesystem::rename(tmp, cache_file_, ec);
     if (ec) std::filesystem::remove(tmp, ec);

@@ -48,7 +48,8 @@ struct JitOptions {
   /// Reuse compiled libraries across runs (file comment).
   bool use_cache = true;
   /// The cache folder; empty means $GRAYBOX_JIT_CACHE, else $XDG_CACHE_HOME/graybox/jit, else
-  /// $HOME/.cache/graybox/jit (no cache when none is set). Created (mode 0700) when missing.
+  /// $HOME/.cache/graybox/jit (no cache when none is set). Created (mode 0700) when missing;
+  /// an existing folder keeps its permissions.
   std::string cache_dir;
 };
 

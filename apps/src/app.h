@@ -23,6 +23,7 @@
 
 #include "graybox/estimators/fit/fit.h"
 #include "graybox/estimators/problem/problem_file.h"
+#include "graybox/util/write_file.h"
 
 namespace graybox::app {
 
@@ -149,8 +150,8 @@ std::string Printable(const std::string& text);
 bool IsControlCharacter(char c);
 
 /// Writes `content` to `path` through a temporary file in the same folder and a rename, so a
-/// reader never sees a half-written file. Throws std::runtime_error on I/O failure.
-void WriteFileAtomically(const std::string& path, const std::string& content);
+/// reader never sees a half-written file (graybox/util/write_file.h). Throws std::runtime_error.
+using util::WriteFileAtomically;
 
 /// The outputs of one run as one unit: they are written into a fresh staging folder beside the
 /// output folder DIR (".<name>.partial-<pid>") and swapped into place by Commit(), so that a

@@ -32,31 +32,6 @@ std::string Printable(const std::string& text) {
   return out;
 }
 
-void WriteFileAtomically(const std::string& path, const std::string& content) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path temp = target.parent_path() / ("." + target.filename().string() + ".tmp-" +
-                                                std::to_string(static_cast<long>(::getpid())));
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    out << content;
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      fs::remove(temp, ignored);
-      throw std::runtime_error("cannot write '" + temp.string() + "'");
-    }
-  }
-  std::error_code ec;
-  fs::rename(temp, target, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(temp, ignored);
-    throw std::runtime_error("cannot rename '" + temp.string() + "' to '" + path +
-                             "': " + ec.message());
-  }
-}
-
 namespace {
 // DIR without a trailing separator, absolute (so that its parent and name are defined for ".").
 std::filesystem::path Normalised(const std::string& dir) {

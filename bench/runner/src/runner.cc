@@ -24,6 +24,7 @@
 
 #include "graybox/bench/results.h"
 #include "graybox/estimators/fit/fit.h"
+#include "graybox/util/write_file.h"
 
 extern char** environ;
 
@@ -67,19 +68,6 @@ std::string Tail(const std::string& text, int lines) {
   return t;
 }
 
-// Writes `text` to `path` through a temporary file and a rename (a reader never sees half a
-// record). False when it cannot.
-bool WriteWhole(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) return false;
-  }
-  return std::rename(tmp.c_str(), path.c_str()) == 0;
-}
-
 // The child's side of a case: its own process group, output into the log, the case run and its
 // record written; never returns.
 [[noreturn]] void RunCaseInChild(const Suite& suite, const Case& c, const std::string& record,
@@ -98,10 +86,7 @@ bool WriteWhole(const std::string& path, const std::string& text) {
     const CaseRecord r = RunCase(suite, c);
     std::printf("case %s: %s%s%s%s\n", c.id.c_str(), r.status.c_str(), r.error.empty() ? "" : " (",
                 r.error.c_str(), r.error.empty() ? "" : ")");
-    if (!WriteWhole(record, CaseRecordJson(r))) {
-      std::printf("cannot write the record %s\n", record.c_str());
-      code = 1;
-    }
+    util::WriteFileAtomically(record, CaseRecordJson(r));
   } catch (const std::exception& e) {
     std::printf("case %s: %s\n", c.id.c_str(), e.what());
     code = 1;

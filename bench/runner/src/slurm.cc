@@ -15,6 +15,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "graybox/util/write_file.h"
+
 extern char** environ;
 
 namespace graybox::bench {
@@ -203,10 +205,7 @@ SlurmScripts SaveSlurmScripts(const SlurmOptions& o) {
   SlurmScripts paths{(dir / "bench_array.sh").string(), (dir / "bench_merge.sh").string()};
   for (const auto& [path, text] : {std::pair{paths.array_script, texts.array_script},
                                    std::pair{paths.merge_script, texts.merge_script}}) {
-    std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    f << text;
-    f.close();
-    if (!f) throw std::runtime_error("cannot write '" + path + "'");
+    util::WriteFileAtomically(path, text);
     fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
                     fs::perm_options::add, ec);
   }

@@ -51,6 +51,10 @@ void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
          "nominal solve, at least 10 s); a re-fit whose first stage it stops is reported "
          "as not converged")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--refit-in-processes", o->refit_in_processes,
+                "where the problem is solved by Ipopt (not thread-safe), re-fit in one child "
+                "process per re-fit so that the solves run side by side (default: threads, "
+                "whose Ipopt solves wait for each other; see docs/performance.md)");
   cmd->add_flag("--no-reference", o->no_reference,
                 "skip the flexible reference (no gap, no 'gap closed'; saves its fit, which "
                 "dominates on long multi-axis records)");

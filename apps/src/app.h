@@ -53,6 +53,7 @@ struct CommandOptions {
   std::vector<std::string> effects;  // candidate effects to propose; empty: the default set
   bool no_reference = false;         // skip the flexible reference
   double refit_seconds = 0.0;        // budget of each re-fit (all its solves)
+  bool refit_in_processes = false;   // Ipopt re-fits in child processes, not in threads
   // bench withheld only.
   bool fast = false;               // the CI subset
   std::vector<std::string> cases;  // name filters

@@ -116,6 +116,7 @@ diagnosis::DiagnoseOptions DiagnoseOptionsFrom(const CommandOptions& o) {
   options.screening.candidates.effects = o.effects;
   options.fit_reference = !o.no_reference;
   options.screening.refit_max_seconds = o.refit_seconds;
+  options.screening.refit_in_processes = o.refit_in_processes;
   return options;
 }
 

@@ -13,11 +13,17 @@
 #include <utility>
 #include <vector>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 namespace graybox::diagnosis {
 namespace {
 
 namespace est = graybox::estimators;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The flexible reference's nice value (weight 110 against the rounds' 1024 on Linux).
+constexpr int kReferenceNice = 10;
 
 std::string Format(const char* fmt, double v) {
   char buf[64];
@@ -248,15 +254,18 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
       Localize(problem.built, d.nominal.values, d.nominal.evaluations, options.localization);
   d.seconds.emplace_back("localisation", clock.Lap());
   d.gap = kNaN;
-  // The flexible reference depends on the nominal fit only, and round 1 needs it only after its
-  // re-fits: it is fitted on its own thread beside round 1, whose re-fits leave a core idle
-  // while they wait for Ipopt's process-wide lock (its Ceres solve does not take that lock;
-  // re-fit budgets are thread CPU time, so the rounds' outcome does not change).
+  // The flexible reference depends on the nominal fit only, and only the verdict's gap needs it:
+  // it is fitted on its own thread beside the rounds, at a lower scheduling priority, so that it
+  // takes the cores the rounds leave idle (their re-fits wait for each other or for a round's
+  // last re-fit) without slowing them (re-fit budgets are CPU time, so their outcome does not
+  // change either way).
   std::future<FlexibleReference> reference;
   double reference_seconds = 0.0;
   if (options.fit_reference) {
-    progress("flexible reference: networks on every mechanical axis (beside round 1)");
+    progress("flexible reference: networks on every mechanical axis (beside the rounds)");
     reference = std::async(std::launch::async, [&]() {
+      // This thread only (Linux: a thread's nice value; threads it starts inherit it).
+      ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), kReferenceNice);
       const auto t0 = std::chrono::steady_clock::now();
       FlexibleReference r = FitFlexibleReference(problem, splits, d.nominal, options.reference);
       reference_seconds =
@@ -285,16 +294,9 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
     SelectionRound r;
     r.round = round;
     r.screening = ScreenAndRefit(current, current_splits, current_fit, screening);
-    if (round == 1 && reference.valid()) {
-      d.reference = reference.get();
-      d.seconds.emplace_back("flexible reference (beside round 1)", reference_seconds);
-    }
     if (round == 1) {
       d.validation_role = r.screening.validation_role;
       d.nominal_validation_nrmse = r.screening.nominal_validation_nrmse;
-      if (d.reference.ok && d.reference.validation_nrmse < d.nominal_validation_nrmse) {
-        d.gap = d.nominal_validation_nrmse - d.reference.validation_nrmse;
-      }
     }
     const double before = r.screening.nominal_validation_nrmse;
     const RefitResult* best = r.screening.refits.empty() ? nullptr : &r.screening.refits.front();
@@ -330,7 +332,6 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
         a.validation_nrmse_after = best->validation_nrmse_after;
         a.shrinkage = before - best->validation_nrmse_after;
         a.error_share = a.shrinkage / d.nominal_validation_nrmse;
-        a.gap_closed = a.shrinkage / d.gap;  // NaN without a gap
         a.lr_statistic = r.lr_statistic;
         a.lr_p_value = r.lr_p_value;
         a.dof = dof;
@@ -378,6 +379,14 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   if (d.stop_reason.empty()) {
     d.stop_reason = "max_effects = " + std::to_string(options.max_effects) + " reached";
   }
+  if (reference.valid()) {
+    d.reference = reference.get();
+    d.seconds.emplace_back("flexible reference (beside the rounds)", reference_seconds);
+    if (d.reference.ok && d.reference.validation_nrmse < d.nominal_validation_nrmse) {
+      d.gap = d.nominal_validation_nrmse - d.reference.validation_nrmse;
+    }
+  }
+  for (AcceptedEffect& a : d.accepted) a.gap_closed = a.shrinkage / d.gap;  // NaN without a gap
 
   d.final_problem = current;
   d.final_fit = current_fit;

@@ -24,7 +24,7 @@
 
 #include "graybox/estimators/integrators/integrator_factory.h"
 #include "graybox/estimators/nlp/nlp.h"
-#include "graybox/util/thread_cpu_time.h"
+#include "graybox/util/thread_user_time.h"
 
 namespace graybox::diagnosis::internal {
 
@@ -61,7 +61,7 @@ RefitRun::RefitRun(const est::Problem& problem, const std::vector<est::SplitData
       started_(std::chrono::steady_clock::now()) {}
 
 double RefitRun::CpuElapsed() const {
-  return cpu_spent_ + (running_ ? util::ThreadCpuSeconds() - cpu_mark_ : 0.0);
+  return cpu_spent_ + (running_ ? util::ThreadUserSeconds() - cpu_mark_ : 0.0);
 }
 
 bool RefitRun::BudgetLeft() {
@@ -84,12 +84,12 @@ est::FitResult RefitRun::TimedSolve(const est::FitResult* start) {
 }
 
 void RefitRun::Resume() {
-  cpu_mark_ = util::ThreadCpuSeconds();
+  cpu_mark_ = util::ThreadUserSeconds();
   running_ = true;
 }
 
 void RefitRun::Pause() {
-  cpu_spent_ += util::ThreadCpuSeconds() - cpu_mark_;
+  cpu_spent_ += util::ThreadUserSeconds() - cpu_mark_;
   running_ = false;
 }
 
@@ -130,10 +130,11 @@ void RefitRun::StageA() {
     est::Problem& aug = aug_;
     est::FitOptions fo;
     fo.max_solve_seconds = max_seconds;
-    // The budget is CPU time of this thread (the re-fit's solves all run on it): waiting for
-    // Ipopt's lock or for a core of a loaded machine does not spend it, so the outcome does not
-    // depend on the load (a Dahl re-fit missed its grid on a loaded machine with a wall budget).
-    fo.budget_clock = est::FitOptions::BudgetClock::kThreadCpu;
+    // The budget is user CPU time of this thread (the re-fit's solves all run on it): waiting for
+    // Ipopt's lock or for a core of a loaded machine does not spend it, nor do the page faults of
+    // a re-fit's fresh process, so the outcome does not depend on the load or on where the re-fit
+    // runs (a Dahl re-fit missed its grid on a loaded machine with a wall budget).
+    fo.budget_clock = est::FitOptions::BudgetClock::kThreadUser;
     session_ =
         std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
     auto& session = session_;
@@ -292,6 +293,7 @@ void RefitRun::StageA() {
           aug = std::move(variant_problem);
           out.candidate.apply = variant.apply;
           out.candidate.augmentation.options.numbers[option] = {v};
+          variant_option_ = v;
         } else {
           std::swap(session, variant_session);
         }
@@ -432,7 +434,7 @@ RefitResult RefitRun::Finish() {
     std::snprintf(
         line, sizeof(line),
         "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far (%.3g s "
-        "CPU of its budget)",
+        "user CPU of its budget)",
         solves_, solve_wall_, solver_seconds_,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count(),
         CpuElapsed());

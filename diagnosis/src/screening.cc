@@ -78,11 +78,17 @@ double GammaQ(double a, double x) {
   return std::exp(log_prefactor) * h;
 }
 
+// `threads`, or one per hardware thread for 0.
+int ResolvedThreads(int threads) {
+  return threads > 0 ? threads
+                     : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 // Runs fn(i) for i = 0 .. n-1 on `threads` threads (0: one per hardware thread), each index once.
 // An exception escaping fn is rethrown on the calling thread after every worker has stopped.
 template <typename Fn>
 void ParallelFor(int n, int threads, Fn&& fn) {
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = ResolvedThreads(threads);
   threads = std::max(1, std::min(threads, n));
   if (threads <= 1) {
     for (int i = 0; i < n; ++i) fn(i);
@@ -306,15 +312,23 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
   // round's contenders (ScreeningOptions::contender_share), which are then finished side by side.
   const int n_refit = static_cast<int>(to_refit.size());
   d.refits.resize(to_refit.size());
-  std::vector<std::unique_ptr<internal::RefitRun>> runs(to_refit.size());
+  std::vector<std::unique_ptr<internal::RefitSteps>> runs(to_refit.size());
+  const bool in_processes =
+      options.refit_in_processes &&
+      internal::RefitsInProcesses(problem, std::min(ResolvedThreads(options.num_threads), n_refit));
   ParallelFor(n_refit, options.num_threads, [&](int i) {
     report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +
-           std::to_string(to_refit.size()) + ")");
-    runs[i] =
-        std::make_unique<internal::RefitRun>(problem, splits, nominal, *to_refit[i],
-                                             d.validation_role, d.nominal_validation_nrmse, budget);
-    runs[i]->StageA();
-    runs[i]->Evaluate();
+           std::to_string(to_refit.size()) + ")" + (in_processes ? " in a process" : ""));
+    if (in_processes) {
+      runs[i] = std::make_unique<internal::RefitProcess>(problem, splits, nominal, *to_refit[i],
+                                                         d.validation_role,
+                                                         d.nominal_validation_nrmse, budget);
+    } else {
+      runs[i] = std::make_unique<internal::RefitRun>(problem, splits, nominal, *to_refit[i],
+                                                     d.validation_role, d.nominal_validation_nrmse,
+                                                     budget);
+    }
+    runs[i]->RunStageA();
     if (!runs[i]->HasShapeStage()) {
       d.refits[i] = runs[i]->Finish();
       runs[i].reset();
@@ -348,8 +362,7 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
     const int i = contenders[k];
     report("freeing the shape of " + to_refit[i]->candidate.Name() + " (" + std::to_string(k + 1) +
            "/" + std::to_string(contenders.size()) + ")");
-    runs[i]->StageB();
-    runs[i]->Evaluate();
+    runs[i]->RunStageB();
     d.refits[i] = runs[i]->Finish();
     runs[i].reset();
   });

@@ -1,5 +1,7 @@
 #include "graybox/expr/expr.h"
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -41,6 +43,16 @@ struct KeyHash {
 // it; expired entries are swept when the table has doubled since the last sweep.
 class NodeTable {
  public:
+  // A process forked while another thread holds the table's lock would inherit it locked: fork
+  // waits for the lock and both processes release it (a diagnosis runs re-fits in forked
+  // processes while its other threads build expressions).
+  NodeTable() {
+    pthread_atfork([] { Table().mutex_.lock(); }, [] { Table().mutex_.unlock(); },
+                   [] { Table().mutex_.unlock(); });
+  }
+  // The process' one table.
+  static NodeTable& Table();
+
   std::shared_ptr<const Node> Intern(const Key& key, Node&& proto) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = table_.find(key);
@@ -76,10 +88,12 @@ class NodeTable {
   std::size_t swept_size_ = 0;
 };
 
-NodeTable& Table() {
+NodeTable& NodeTable::Table() {
   static NodeTable* table = new NodeTable();  // never destroyed: Exprs may outlive statics
   return *table;
 }
+
+NodeTable& Table() { return NodeTable::Table(); }
 
 std::uint64_t Bits(double v) {
   std::uint64_t b;

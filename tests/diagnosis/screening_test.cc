@@ -115,7 +115,7 @@ struct Case {
   est::FitResult nominal;
 };
 
-Case RunCase(bool withheld) {
+Case RunCase(bool withheld, bool refit_in_processes = false, int refit_top = 5) {
   std::mt19937 rng(Seed());
   const std::vector<est::SplitData> splits = {
       TruthSplit("estimation", est::SplitRole::kEstimation, 0.0, withheld, &rng),
@@ -130,6 +130,9 @@ Case RunCase(bool withheld) {
   // machine it stops re-fits early and the ranking depends on the load. A budget that never binds
   // on these small problems keeps the test deterministic.
   options.refit_max_seconds = kRefitSecondsThatNeverBind;
+  options.refit_in_processes = refit_in_processes;
+  options.refit_top = refit_top;
+  options.num_threads = 2;  // re-fits side by side, so that processes are used where asked
   options.progress = [](const std::string& line) { std::cout << line << "\n"; };
   c.diagnosis = ScreenAndRefit(problem, splits, c.nominal, options);
   std::cout << c.diagnosis.FullReport();
@@ -234,6 +237,62 @@ TEST(ScreenAndRefit, WithheldStribeckFrictionIsNamedAndShrinksTheGap) {
   for (const RefitResult& r : d.refits) {
     if (!r.ok) {
       EXPECT_FALSE(r.failure.empty());
+    }
+  }
+}
+
+// The re-fits of this Ipopt problem in child processes (ScreeningOptions::refit_in_processes,
+// two threads) and in threads: the same computation on the same data, so the same ranking,
+// statuses, stages and numbers; the fits the parent builds again from the children's solver points
+// carry the same parameter values, standard errors and validation simulations.
+TEST(ScreenAndRefit, RefitsInProcessesEqualRefitsInThreads) {
+  // The best three by score: two re-fits side by side, then the third.
+  constexpr int kRefits = 3;
+  const Case processes = RunCase(true, true, kRefits);
+  const Case threads = RunCase(true, false, kRefits);
+  // Both runs compute the same floating-point operations in the same order.
+  constexpr double kSameComputation = 1e-12;
+  auto near = [](double a, double b) {
+    return (std::isnan(a) && std::isnan(b)) ||
+           std::fabs(a - b) <= kSameComputation * std::max(1.0, std::fabs(b));
+  };
+  const std::vector<RefitResult>& p = processes.diagnosis.refits;
+  const std::vector<RefitResult>& t = threads.diagnosis.refits;
+  ASSERT_EQ(p.size(), t.size());
+  ASSERT_GE(p.size(), 2u);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    SCOPED_TRACE(t[i].candidate.Name());
+    EXPECT_EQ(p[i].candidate.Name(), t[i].candidate.Name());
+    EXPECT_EQ(p[i].ok, t[i].ok);
+    EXPECT_EQ(p[i].at_bound, t[i].at_bound);
+    EXPECT_EQ(p[i].failure, t[i].failure);
+    EXPECT_TRUE(near(p[i].validation_nrmse_after, t[i].validation_nrmse_after))
+        << p[i].validation_nrmse_after << " against " << t[i].validation_nrmse_after;
+    EXPECT_TRUE(near(p[i].aic, t[i].aic));
+    EXPECT_EQ(p[i].candidate.augmentation.options.numbers,
+              t[i].candidate.augmentation.options.numbers);
+    ASSERT_EQ(p[i].stages.size(), t[i].stages.size());
+    // The last stage line holds times; the others say what was done.
+    for (std::size_t k = 0; k + 1 < p[i].stages.size(); ++k) {
+      EXPECT_EQ(p[i].stages[k], t[i].stages[k]);
+    }
+    EXPECT_EQ(p[i].fit.solver_result.status, t[i].fit.solver_result.status);
+    EXPECT_EQ(p[i].fit.solver_result.iterations, t[i].fit.solver_result.iterations);
+    ASSERT_EQ(p[i].fit.values.size(), t[i].fit.values.size());
+    for (Eigen::Index k = 0; k < p[i].fit.values.size(); ++k) {
+      EXPECT_TRUE(near(p[i].fit.values[k], t[i].fit.values[k]));
+    }
+    ASSERT_EQ(p[i].parameters.size(), t[i].parameters.size());
+    for (std::size_t k = 0; k < p[i].parameters.size(); ++k) {
+      EXPECT_EQ(p[i].parameters[k].free, t[i].parameters[k].free);
+      EXPECT_TRUE(near(p[i].parameters[k].initial, t[i].parameters[k].initial));
+      EXPECT_TRUE(near(p[i].parameters[k].std_error, t[i].parameters[k].std_error))
+          << p[i].parameters[k].name;
+    }
+    ASSERT_EQ(p[i].fit.evaluations.size(), t[i].fit.evaluations.size());
+    for (std::size_t k = 0; k < p[i].fit.evaluations.size(); ++k) {
+      EXPECT_TRUE(p[i].fit.evaluations[k].simulated.isApprox(t[i].fit.evaluations[k].simulated,
+                                                             kSameComputation));
     }
   }
 }

@@ -203,6 +203,51 @@ TEST(Fit, WarmRefitAfterChangingAFixedValueReusesTheFormulation) {
   EXPECT_LE(warm.solver_result.iterations, cold.solver_result.iterations);
 }
 
+// ResultOf builds the result of a solve made by another session of the same problem (the
+// diagnosis' re-fits in child processes): from the solver result alone, the parameter table,
+// covariance, initial states and evaluations of the session that solved.
+TEST(Fit, TheResultOfASolverPointMadeElsewhereEqualsTheSolvesResult) {
+  const Problem problem = LoadProblem(kProblems + "emps_closed_loop.toml");
+  const std::vector<SplitData> splits = ShortEstimation(LoadData(problem));
+  FitSession solver(problem, splits);
+  const FitResult solved = solver.Solve();
+  ASSERT_TRUE(solved.IsSolutionUsable()) << solved.FullReport();
+  FitSession other(problem, splits);
+  const FitResult built = other.ResultOf(solved.solver_result);
+  EXPECT_EQ(built.solver_result.iterations, solved.solver_result.iterations);
+  EXPECT_EQ(built.num_variables, solved.num_variables);
+  ASSERT_EQ(built.parameters.size(), solved.parameters.size());
+  for (std::size_t i = 0; i < solved.parameters.size(); ++i) {
+    const FitParameter& a = built.parameters[i];
+    const FitParameter& b = solved.parameters[i];
+    EXPECT_EQ(a.value, b.value) << b.name;
+    EXPECT_EQ(a.initial, b.initial) << b.name;
+    EXPECT_EQ(a.free, b.free) << b.name;
+    EXPECT_LE(RelDiff(a.std_error, b.std_error), kSameArithmeticRelTol) << b.name;
+  }
+  ASSERT_EQ(built.initial_states.size(), solved.initial_states.size());
+  for (const auto& [name, x0] : solved.initial_states) {
+    EXPECT_EQ(built.initial_states.at(name), x0) << name;
+  }
+  ASSERT_EQ(built.evaluations.size(), solved.evaluations.size());
+  for (std::size_t i = 0; i < solved.evaluations.size(); ++i) {
+    EXPECT_LE(RelDiff(built.evaluations[i].simulation.overall.nrmse,
+                      solved.evaluations[i].simulation.overall.nrmse),
+              kSameArithmeticRelTol);
+  }
+  // A point of another size is refused, naming both sizes.
+  SolverResult wrong = solved.solver_result;
+  wrong.w.conservativeResize(wrong.w.size() - 1);
+  try {
+    other.ResultOf(wrong);
+    ADD_FAILURE() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    const std::string expected = "a solver point of " + std::to_string(wrong.w.size()) +
+                                 " variables, expected " + std::to_string(solved.num_variables);
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+  }
+}
+
 TEST(Fit, FixingAndFreeingReformulates) {
   const Problem problem = LoadProblem(kProblems + "emps_idim.toml");
   FitSession session(problem, LoadData(problem), Quiet());

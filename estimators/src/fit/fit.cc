@@ -12,7 +12,7 @@
 #include "fit/formulation.h"
 #include "graybox/estimators/nlp/nlp_check.h"
 #include "graybox/util/did_you_mean.h"
-#include "graybox/util/thread_cpu_time.h"
+#include "graybox/util/thread_user_time.h"
 
 namespace graybox::estimators {
 
@@ -42,7 +42,7 @@ class Heartbeat {
       : progress_(progress),
         interval_(interval),
         solver_(std::move(solver)),
-        cpu_start_(util::ThreadCpuSeconds()) {
+        cpu_start_(util::ThreadUserSeconds()) {
     if (progress_) thread_ = std::thread([this] { Run(); });
   }
   ~Heartbeat() {
@@ -54,15 +54,15 @@ class Heartbeat {
     if (thread_.joinable()) thread_.join();
   }
   // Keeps the latest iteration for the progress line; false (stop) once the solve has run for
-  // more than `max_seconds` (> 0, on the wall clock) or `max_cpu_seconds` (> 0, CPU time of the
-  // thread that constructed this object and calls Record: the solving thread) since it started
+  // more than `max_seconds` (> 0, on the wall clock) or `max_cpu_seconds` (> 0, user CPU time of
+  // the thread that constructed this object and calls Record: the solving thread) since it started
   // (checked at each iteration).
   bool Record(const IterationSummary& s, double max_seconds, double max_cpu_seconds) {
     std::lock_guard<std::mutex> lock(mutex_);
     latest_ = s;
     has_latest_ = true;
     if (max_seconds > 0.0 && timer_.Seconds() > max_seconds) return false;
-    return !(max_cpu_seconds > 0.0 && util::ThreadCpuSeconds() - cpu_start_ > max_cpu_seconds);
+    return !(max_cpu_seconds > 0.0 && util::ThreadUserSeconds() - cpu_start_ > max_cpu_seconds);
   }
 
  private:
@@ -175,6 +175,88 @@ struct FitSession::State {
         " equality constraints): expected at least as many residuals; give longer estimation "
         "splits or fix parameters");
   }
+  // The result's description of the formulation.
+  void Describe(FitResult* result) const {
+    result->problem = problem.name;
+    result->method = problem.estimation.method;
+    result->solver = problem.estimation.solver;
+    result->formulation = formulation.summary;
+    result->num_variables = formulation.nlp->NumVariables();
+    result->num_constraints = formulation.nlp->NumConstraints();
+    result->num_residuals = formulation.nlp->NumResiduals();
+  }
+  // What follows a solve (result->solver_result holds it; the model's parameter values are the
+  // solve's start): the parameter values and initial states at the final point, the covariance,
+  // the parameter table and the evaluation of every split.
+  void Complete(FitResult* out) {
+    FitResult& result = *out;
+    const internal::Formulation& f = formulation;
+    const models::StateSpaceModel& m = problem.built;
+    const Eigen::VectorXd initial = m.ParameterValues();
+    const Eigen::VectorXd& w = result.solver_result.w;
+    result.values = f.parameters(w);
+    result.initial_states = f.initial_states(w);
+    // Covariance.
+    Timer t;
+    if (options.compute_covariance) {
+      try {
+        result.uncertainty = f.covariance(w, result.values);
+        result.has_uncertainty = result.uncertainty.ok;
+        if (!result.uncertainty.ok) result.uncertainty_error = result.uncertainty.failure;
+      } catch (const std::exception& e) {
+        result.uncertainty_error =
+            std::string("the covariance could not be computed because ") + e.what();
+      }
+    }
+    result.seconds.emplace_back("covariance", t.Seconds());
+    // Parameters.
+    for (int i = 0; i < m.NumParameters(); ++i) {
+      const models::ModelParameter& mp = m.parameters[i];
+      FitParameter p;
+      p.name = mp.name;
+      p.unit = mp.info.unit;
+      p.initial = initial[i];
+      p.value = result.values[i];
+      p.lower = mp.lower;
+      p.upper = mp.upper;
+      p.free = mp.free;
+      p.std_error = p.free ? std::nan("") : 0.0;
+      p.ci_low = p.ci_high = p.value;
+      if (p.free) {
+        // Within 1e-6 of the parameter's scale or of the bound's magnitude (a Stribeck velocity of
+        // scale 0.17 at 999.999 of its bound 1000 is at the bound).
+        auto near = [&](double bound) {
+          return std::isfinite(bound) &&
+                 std::fabs(p.value - bound) <=
+                     1e-6 * std::max({std::fabs(mp.scale), std::fabs(bound), 1e-300});
+        };
+        p.at_bound = near(p.lower) || near(p.upper);
+        p.ci_low = p.ci_high = std::nan("");
+      }
+      if (result.has_uncertainty) {
+        for (const ParameterEstimate& e : result.uncertainty.parameters) {
+          if (e.name != p.name || !p.free) continue;
+          p.std_error = e.std_error;
+          p.ci_low = e.ci_low;
+          p.ci_high = e.ci_high;
+        }
+      }
+      result.parameters.push_back(p);
+    }
+    // Evaluation of every split.
+    t = Timer();
+    if (options.evaluate_splits) {
+      for (const SplitData& split : splits) {
+        SplitEvaluation e = EvaluateSplit(problem, split, result.values,
+                                          InitialStateOf(split, result.initial_states));
+        if (f.evaluate_equation) f.evaluate_equation(split, result.values, &e);
+        Progress("  " + e.BriefReport());
+        result.evaluations.push_back(std::move(e));
+      }
+    }
+    result.seconds.emplace_back("evaluate", t.Seconds());
+    pending_starts.clear();
+  }
   // Position of model parameter i among the NLP's variables, or -1 when it is not one.
   int VariableOf(int i) const {
     const ParameterMap& map = *formulation.map;
@@ -274,9 +356,6 @@ FitResult FitSession::Solve(const FitResult* start) {
   const Problem& problem = s.problem;
   const models::StateSpaceModel& m = problem.built;
   FitResult result;
-  result.problem = problem.name;
-  result.method = problem.estimation.method;
-  result.solver = problem.estimation.solver;
   Timer t;
   const bool same_structure = start != nullptr && !s.stale &&
                               start->solver_result.w.size() == s.formulation.nlp->NumVariables();
@@ -293,13 +372,10 @@ FitResult FitSession::Solve(const FitResult* start) {
     s.stale = true;
   }
   if (s.stale) s.Formulate();
+  s.Describe(&result);
   result.seconds.emplace_back("build", t.Seconds());
   const internal::Formulation& f = s.formulation;
   Nlp& nlp = *f.nlp;
-  result.formulation = f.summary;
-  result.num_variables = nlp.NumVariables();
-  result.num_constraints = nlp.NumConstraints();
-  result.num_residuals = nlp.NumResiduals();
   const Eigen::VectorXd initial = m.ParameterValues();
   const std::vector<const SplitData*> est = s.EstimationSplits();
   if (s.options.check_derivatives) {
@@ -376,7 +452,7 @@ FitResult FitSession::Solve(const FitResult* start) {
     Heartbeat heartbeat(s.options.progress, s.options.progress_interval_seconds, spec.solver);
     // The caller's limit on its clock; the problem's on the wall clock (the smaller wins when
     // both are wall time).
-    const bool cpu = s.options.budget_clock == FitOptions::BudgetClock::kThreadCpu;
+    const bool cpu = s.options.budget_clock == FitOptions::BudgetClock::kThreadUser;
     double max_seconds = cpu ? 0.0 : s.options.max_solve_seconds;
     const double max_cpu_seconds = cpu ? s.options.max_solve_seconds : 0.0;
     const double problem_limit = s.problem.estimation.max_seconds;
@@ -394,70 +470,24 @@ FitResult FitSession::Solve(const FitResult* start) {
   }
   result.seconds.emplace_back("solve", t.Seconds());
   s.Progress("  " + result.solver_result.BriefReport());
-  const Eigen::VectorXd& w = result.solver_result.w;
-  result.values = f.parameters(w);
-  result.initial_states = f.initial_states(w);
-  // The session's next cold start begins at this point's parameters.
-  // Covariance.
-  t = Timer();
-  if (s.options.compute_covariance) {
-    try {
-      result.uncertainty = f.covariance(w, result.values);
-      result.has_uncertainty = result.uncertainty.ok;
-      if (!result.uncertainty.ok) result.uncertainty_error = result.uncertainty.failure;
-    } catch (const std::exception& e) {
-      result.uncertainty_error =
-          std::string("the covariance could not be computed because ") + e.what();
-    }
+  s.Complete(&result);
+  return result;
+}
+
+FitResult FitSession::ResultOf(SolverResult solved) {
+  State& s = *state_;
+  if (s.stale) s.Formulate();
+  const Nlp& nlp = *s.formulation.nlp;
+  if (solved.w.size() != nlp.NumVariables()) {
+    throw std::invalid_argument("FitSession::ResultOf: a solver point of " +
+                                std::to_string(solved.w.size()) + " variables, expected " +
+                                std::to_string(nlp.NumVariables()) + " (problem '" +
+                                s.problem.name + "')");
   }
-  result.seconds.emplace_back("covariance", t.Seconds());
-  // Parameters.
-  for (int i = 0; i < m.NumParameters(); ++i) {
-    const models::ModelParameter& mp = m.parameters[i];
-    FitParameter p;
-    p.name = mp.name;
-    p.unit = mp.info.unit;
-    p.initial = initial[i];
-    p.value = result.values[i];
-    p.lower = mp.lower;
-    p.upper = mp.upper;
-    p.free = mp.free;
-    p.std_error = p.free ? std::nan("") : 0.0;
-    p.ci_low = p.ci_high = p.value;
-    if (p.free) {
-      // Within 1e-6 of the parameter's scale or of the bound's magnitude (a Stribeck velocity of
-      // scale 0.17 at 999.999 of its bound 1000 is at the bound).
-      auto near = [&](double bound) {
-        return std::isfinite(bound) &&
-               std::fabs(p.value - bound) <=
-                   1e-6 * std::max({std::fabs(mp.scale), std::fabs(bound), 1e-300});
-      };
-      p.at_bound = near(p.lower) || near(p.upper);
-      p.ci_low = p.ci_high = std::nan("");
-    }
-    if (result.has_uncertainty) {
-      for (const ParameterEstimate& e : result.uncertainty.parameters) {
-        if (e.name != p.name || !p.free) continue;
-        p.std_error = e.std_error;
-        p.ci_low = e.ci_low;
-        p.ci_high = e.ci_high;
-      }
-    }
-    result.parameters.push_back(p);
-  }
-  // Evaluation of every split.
-  t = Timer();
-  if (s.options.evaluate_splits) {
-    for (const SplitData& split : s.splits) {
-      SplitEvaluation e = EvaluateSplit(problem, split, result.values,
-                                        InitialStateOf(split, result.initial_states));
-      if (f.evaluate_equation) f.evaluate_equation(split, result.values, &e);
-      s.Progress("  " + e.BriefReport());
-      result.evaluations.push_back(std::move(e));
-    }
-  }
-  result.seconds.emplace_back("evaluate", t.Seconds());
-  s.pending_starts.clear();
+  FitResult result;
+  s.Describe(&result);
+  result.solver_result = std::move(solved);
+  s.Complete(&result);
   return result;
 }
 

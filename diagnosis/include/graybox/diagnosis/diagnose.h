@@ -83,10 +83,12 @@
 // explained: "...; coulomb (...) removes 4 % of the validation NRMSE, but the candidate library
 // does not explain the gap: 93 % of the residual's structured energy remains, in <place>".
 //
-// Threads. Screening and re-fits run on options.screening.num_threads threads (screening.h);
-// Ipopt's own code runs under the estimators' process-wide lock, the evaluations overlap. The
-// flexible reference (step 2) is fitted on one more thread beside round 1 (it needs only the
-// nominal fit; round 1 waits for it at its end). options.progress is called one line at a time.
+// Threads and processes. Screening and re-fits run on options.screening.num_threads threads
+// (screening.h), or, for a problem that Ipopt solves, in child processes, one per re-fit, where
+// ScreeningOptions::refit_in_processes says so. The flexible reference (step 2)
+// is fitted on one more thread beside the rounds, at a lower scheduling priority (it needs only
+// the nominal fit, and only the gap needs it; the diagnosis waits for it after the last round).
+// options.progress is called one line at a time.
 //
 // Failure behaviour. Invalid options throw std::invalid_argument naming the field
 // (DiagnoseOptions::Validate); a problem or data defect throws from estimators::Fit as a fit does;
@@ -209,9 +211,9 @@ struct DiagnosisReport {
   bool explained = false;
   std::string verdict;
   /// Wall time per phase: "nominal fit", "localisation", "round 1", ..., "remainder",
-  /// "sparse regression", and "flexible reference (beside round 1)": the reference is fitted on
-  /// its own thread while round 1 runs, so its time overlaps round 1's (which includes any wait
-  /// for the reference at the round's end) and the phases do not add up to the total.
+  /// "sparse regression", and "flexible reference (beside the rounds)": the reference is fitted
+  /// on its own thread while the rounds run, so its time overlaps theirs (the wait for it after
+  /// the last round is in "remainder") and the phases do not add up to the total.
   std::vector<std::pair<std::string, double>> seconds;
 
   /// The verdict and the figures in one line each for the nominal and final validation NRMSE.

@@ -193,7 +193,8 @@ struct ScreeningOptions {
   /// first only when its validation NRMSE is lower than the simpler one's by more than
   /// nested_margin x the nominal validation NRMSE (>= 0).
   double nested_margin = 0.02;
-  /// Budget of each re-fit [s], CPU time of the thread that runs it over all its solves (stage A,
+  /// Budget of each re-fit [s], user-mode CPU time of the thread that runs it (util::
+  /// ThreadUserSeconds) over all its solves (stage A,
   /// the profile over the shape grids, stage B): each solve may iterate for what is left
   /// (FitOptions:: max_solve_seconds, checked at every iteration); the profile and stage B are
   /// skipped once it is spent (said in RefitResult::stages). 0: automatic (AutomaticRefitBudget;
@@ -223,6 +224,16 @@ struct ScreeningOptions {
   /// formulation, derivatives, covariance, simulation of the splits) overlaps. The results do not
   /// depend on it.
   int num_threads = 0;
+  /// Where more than one re-fit runs at a time and the problem is solved by Ipopt (not
+  /// thread-safe, so its solves in threads wait for each other), run each re-fit in a child
+  /// process (fork) whose result comes back through a socket; the fit is then built again in this
+  /// process from the child's solver point (FitSession::ResultOf). The results are those of the
+  /// re-fits in threads (test). Off by default: each child faults in the memory it writes
+  /// (copy-on-write), which on the 2-core virtual machine of docs/performance.md cost about 3 s of
+  /// kernel time per re-fit and made the EMPS diagnosis slower (106 s against 97 s in threads);
+  /// with more cores than re-fits' solver time waits for Ipopt's lock it may pay. Ceres problems
+  /// re-fit in threads either way.
+  bool refit_in_processes = false;
   /// Progress lines ("screening coulomb (1/7)"); none when empty. Called from the worker
   /// threads, one call at a time.
   std::function<void(const std::string&)> progress;

@@ -2,6 +2,8 @@
 #include <IpIpoptApplication.hpp>
 #include <IpTNLP.hpp>
 
+#include <pthread.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -92,9 +94,16 @@ SolverStatus StatusCode(Ipopt::SolverReturn status) {
 
 // Ipopt 3.11.9 with the sequential MUMPS is not known to be thread-safe: Ipopt's own code runs
 // under this lock, one thread at a time; the adapter releases it while the model evaluates.
+// A process forked while Ipopt runs in another thread would inherit the lock taken and Ipopt's
+// state half-way: fork waits until no Ipopt code runs, and both processes release the lock.
 std::mutex& IpoptLock() {
-  static std::mutex lock;
-  return lock;
+  static std::mutex* lock = [] {
+    auto* m = new std::mutex();
+    pthread_atfork([] { IpoptLock().lock(); }, [] { IpoptLock().unlock(); },
+                   [] { IpoptLock().unlock(); });
+    return m;
+  }();
+  return *lock;
 }
 
 class NlpAdapter : public Ipopt::TNLP {

@@ -110,12 +110,14 @@ struct FitOptions {
   /// kUserInterrupt (usable, not converged). A budget for unattended fits such as the diagnosis'
   /// re-fits.
   double max_solve_seconds = 0.0;
-  /// The clock max_solve_seconds is measured on: wall time (kWall), or the CPU time of the thread
-  /// that runs the solve (kThreadCpu: the solver's iterations and the evaluations on that thread;
-  /// time spent waiting for Ipopt's process-wide lock or for the CPU on a loaded machine does not
-  /// count), which makes a budget's outcome independent of the machine's load (the diagnosis'
-  /// re-fits). The problem's [estimation] max_seconds is wall time either way.
-  enum class BudgetClock { kWall, kThreadCpu };
+  /// The clock max_solve_seconds is measured on: wall time (kWall), or the user-mode CPU time of
+  /// the thread that runs the solve (kThreadUser: the solver's iterations and the evaluations on
+  /// that thread; time spent waiting for Ipopt's process-wide lock or for the CPU on a loaded
+  /// machine does not count, nor the kernel's, such as the page faults of a freshly forked
+  /// process), which makes a budget's outcome independent of the machine's load and of the
+  /// process the solve runs in (the diagnosis' re-fits). The problem's [estimation] max_seconds is
+  /// wall time either way.
+  enum class BudgetClock { kWall, kThreadUser };
   BudgetClock budget_clock = BudgetClock::kWall;
   /// Compute the covariance after solving.
   bool compute_covariance = true;
@@ -231,6 +233,13 @@ class FitSession {
   /// method variables (shooting nodes, initial states, collocation states) are the start, with
   /// the constraint multipliers (the newly freed parameters' bound multipliers at 0).
   FitResult Solve(const FitResult* start = nullptr);
+  /// The result Solve returns for a solve of this session's NLP made elsewhere, from its solver
+  /// result `solved` (its final point w, status, iterations, cost): the parameter values and
+  /// initial states at w, the covariance, the parameter table and every split's evaluation, with
+  /// the session's parameter values as the solve's start values. For a solve run in another
+  /// process of the same program (the diagnosis' Ipopt re-fits), whose session held the same
+  /// problem, free set and fixed values. std::invalid_argument when w has not the NLP's size.
+  FitResult ResultOf(SolverResult solved);
 
   /// The problem as the session currently holds it (parameter values and free flags).
   const Problem& problem() const;

@@ -10,8 +10,10 @@
 // d qdd / d (q, qd, tau). Inverse dynamics tau_m = (M qdd + C qd + g + tau_HWC e2 + tau_f) / u:
 // on doubles, tape and generated code, with its Jacobian d tau / d (q, qd, qdd). Every benchmark
 // reports time per point; ratios are formed from one run (see docs/performance.md).
+// $GRAYBOX_BENCH_JIT_FLAGS sets the generated code's compiler flags (default JitOptions::flags).
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <random>
 #include <vector>
@@ -93,7 +95,11 @@ const CompiledFunction& Compiled(const Function& f) {
   for (const auto& [name, cf] : cache) {
     if (name == f.name()) return *cf;
   }
-  cache.push_back({f.name(), new CompiledFunction(f)});
+  // $GRAYBOX_BENCH_JIT_FLAGS replaces the compiler flags: "-O3 -ffp-contract=off" gives x86-64
+  // baseline code, whose instructions valgrind counts (it cannot run AVX-512).
+  JitOptions options;
+  if (const char* flags = std::getenv("GRAYBOX_BENCH_JIT_FLAGS")) options.flags = flags;
+  cache.push_back({f.name(), new CompiledFunction(f, options)});
   return *cache.back().second;
 }
 

@@ -11,6 +11,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -262,15 +264,34 @@ std::string CommandOutput(const std::string& command) {
 }
 
 // The processor as /proc/cpuinfo names it (model and instruction-set flags): code compiled with
-// -march=native on one machine must not be loaded on another that shares the cache folder.
-std::string ProcessorIdentity() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string model, flags;
-  for (std::string line; std::getline(in, line) && (model.empty() || flags.empty());) {
-    if (model.empty() && line.rfind("model name", 0) == 0) model = line;
-    if (flags.empty() && line.rfind("flags", 0) == 0) flags = line;
+// -march=native on one machine must not be loaded on another that shares the cache folder. Read
+// once per process.
+const std::string& ProcessorIdentity() {
+  static const std::string identity = [] {
+    std::ifstream in("/proc/cpuinfo");
+    std::string model, flags;
+    for (std::string line; std::getline(in, line) && (model.empty() || flags.empty());) {
+      if (model.empty() && line.rfind("model name", 0) == 0) model = line;
+      if (flags.empty() && line.rfind("flags", 0) == 0) flags = line;
+    }
+    return model + '\n' + flags;
+  }();
+  return identity;
+}
+
+// `compiler -dumpfullversion -dumpmachine` ("" when it fails), asked once per process and
+// compiler command: a cache hit then costs no process.
+std::string CompilerVersion(const std::string& compiler) {
+  static std::mutex mutex;
+  static std::map<std::string, std::string> versions;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    const auto it = versions.find(compiler);
+    if (it != versions.end()) return it->second;
   }
-  return model + '\n' + flags;
+  std::string version = CommandOutput(compiler + " -dumpfullversion -dumpmachine");
+  const std::lock_guard<std::mutex> lock(mutex);
+  return versions.emplace(compiler, std::move(version)).first->second;
 }
 
 // The cache folder of the options (JitOptions::cache_dir), or "" for none.
@@ -314,7 +335,7 @@ CompiledFunction::CompiledFunction(const Function& f, const JitOptions& options)
   // keep_files asks for this compilation's files: no cache then.
   std::string cache = options.keep_files ? std::string() : CacheFolder(options);
   if (!cache.empty()) {
-    const std::string version = CommandOutput(compiler + " -dumpfullversion -dumpmachine");
+    const std::string version = CompilerVersion(compiler);
     std::error_code ec;
     const bool existed = std::filesystem::is_directory(cache, ec);
     if (!existed) std::filesystem::create_directories(cache, ec);

@@ -254,18 +254,25 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
       Localize(problem.built, d.nominal.values, d.nominal.evaluations, options.localization);
   d.seconds.emplace_back("localisation", clock.Lap());
   d.gap = kNaN;
-  // The flexible reference depends on the nominal fit only, and only the verdict's gap needs it:
-  // it is fitted on its own thread beside the rounds, at a lower scheduling priority, so that it
-  // takes the cores the rounds leave idle (their re-fits wait for each other or for a round's
-  // last re-fit) without slowing them (re-fit budgets are CPU time, so their outcome does not
-  // change either way).
-  std::future<FlexibleReference> reference;
+  // The flexible reference depends on the nominal fit only, and only the gap and the sparse
+  // regression after the rounds need it: it is fitted on its own thread beside the rounds. Where
+  // it does not solve with Ipopt (whose lock the re-fits share), at a lower scheduling priority,
+  // so that it takes the cores the rounds leave idle (their re-fits wait for each other or for a
+  // round's last re-fit) without slowing them; with Ipopt at the same priority, or a re-fit
+  // waiting for its lock would wait for a thread that gets little CPU. Re-fit budgets are CPU
+  // time, so the rounds' outcome does not change either way.
+  // (Declared before the future: a round that throws leaves the future's destructor waiting for
+  // the reference, which still writes its time.)
   double reference_seconds = 0.0;
+  std::future<FlexibleReference> reference;
   if (options.fit_reference) {
     progress("flexible reference: networks on every mechanical axis (beside the rounds)");
-    reference = std::async(std::launch::async, [&]() {
+    const bool lower_priority = FlexibleReferenceSolver(problem) != "ipopt";
+    reference = std::async(std::launch::async, [&, lower_priority]() {
       // This thread only (Linux: a thread's nice value; threads it starts inherit it).
-      ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), kReferenceNice);
+      if (lower_priority) {
+        ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), kReferenceNice);
+      }
       const auto t0 = std::chrono::steady_clock::now();
       FlexibleReference r = FitFlexibleReference(problem, splits, d.nominal, options.reference);
       reference_seconds =

@@ -113,6 +113,13 @@ void ReferenceOptions::Validate() const {
   }
 }
 
+std::string FlexibleReferenceSolver(const est::Problem& problem) {
+  // Under multiple shooting: Gauss-Newton on Ceres with penalised continuity, as the exact Hessian
+  // of the Lagrangian that Ipopt needs is costly to build symbolically through the networks (see
+  // the file comment).
+  return problem.estimation.method == "multiple_shooting" ? "ceres" : problem.estimation.solver;
+}
+
 FlexibleReference FitFlexibleReference(const est::Problem& problem,
                                        const std::vector<est::SplitData>& splits,
                                        const est::FitResult& nominal,
@@ -220,10 +227,8 @@ FlexibleReference FitFlexibleReference(const est::Problem& problem,
     }
     r.num_network_parameters = static_cast<int>(decay.parameters.size());
     if (options.weight_decay > 0.0) aug.estimation.regularization.terms.push_back(decay);
+    aug.estimation.solver = FlexibleReferenceSolver(problem);
     if (aug.estimation.method == "multiple_shooting") {
-      // Gauss-Newton on Ceres with penalised continuity: the exact Hessian of the Lagrangian that
-      // Ipopt needs is costly to build symbolically through the networks (see the file comment).
-      aug.estimation.solver = "ceres";
       aug.estimation.multiple_shooting.continuity_as_constraints = false;
       aug.estimation.multiple_shooting.continuity_weight = 1e3;
     }

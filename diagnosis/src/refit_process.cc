@@ -13,10 +13,12 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <new>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -29,6 +31,19 @@ namespace graybox::diagnosis::internal {
 namespace est = graybox::estimators;
 
 namespace {
+
+// The child's descriptor of its channel (after the standard streams).
+constexpr int kChildChannelFd = 3;
+// The longest message either side accepts (a re-fit's solver point is a few MB).
+constexpr std::uint64_t kMaxMessageBytes = std::uint64_t{1} << 30;
+// The parent waits for each message of a child at most kWaitBudgetFactor times the re-fit's CPU
+// budget in wall time, at least kMinWaitSeconds (a loaded machine stretches the budget's wall
+// time; a child that hangs must not hang the diagnosis).
+constexpr double kWaitBudgetFactor = 20.0;
+constexpr double kMinWaitSeconds = 600.0;
+// The re-fit built again from the child's point validates as the child computed, to rounding
+// (the same operations on the same data; only a changed computation would differ).
+constexpr double kRebuiltValidationRelTol = 1e-9;
 
 class Writer {
  public:
@@ -126,13 +141,28 @@ bool Send(int fd, const std::string& message) {
          WriteAll(fd, message.data(), message.size());
 }
 
-// False when the other end closed before a whole message came.
+// False when the other end closed before a whole message came, or the message is too long.
 bool Receive(int fd, std::string* message) {
   std::uint64_t n = 0;
   if (!ReadAll(fd, reinterpret_cast<char*>(&n), sizeof n)) return false;
-  if (n > (std::uint64_t{1} << 36)) return false;
+  if (n > kMaxMessageBytes) return false;
   message->assign(n, '\0');
   return ReadAll(fd, message->data(), n);
+}
+
+// Waits until `fd` is readable (a message or the other end closed): false when `seconds` of wall
+// time pass first.
+bool WaitReadable(int fd, double seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    const double left =
+        std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    if (!(left > 0.0)) return false;
+    pollfd readable{fd, POLLIN, 0};
+    const int k = ::poll(&readable, 1, static_cast<int>(std::min(left * 1000.0 + 1.0, 60000.0)));
+    if (k > 0) return true;
+    if (k < 0 && errno != EINTR) return true;  // the read that follows reports it
+  }
 }
 
 void PutSolverResult(Writer* w, const est::SolverResult& r) {
@@ -276,6 +306,11 @@ void CloseFd(int* fd) {
 }  // namespace
 
 bool RefitsInProcesses(const est::Problem& problem, int threads) {
+  // A penalty toward the parameters' values at formulation (RegularizationReference::kInitial)
+  // holds the values the child's session formulated with, which the parent cannot rebuild.
+  for (const est::RegularizationTerm& t : problem.estimation.regularization.terms) {
+    if (t.reference == est::RegularizationReference::kInitial) return false;
+  }
   return problem.estimation.solver == "ipopt" && threads > 1;
 }
 
@@ -287,7 +322,8 @@ RefitProcess::RefitProcess(const est::Problem& problem, const std::vector<est::S
       nominal_(nominal),
       screened_(screened),
       role_(role),
-      before_(before) {
+      before_(before),
+      wait_seconds_(std::max(kMinWaitSeconds, kWaitBudgetFactor * max_seconds)) {
   const Candidate& c = screened.candidate;
   out_.candidate = c;
   out_.effect = c.effect;
@@ -315,8 +351,15 @@ RefitProcess::RefitProcess(const est::Problem& problem, const std::vector<est::S
     // end of its channel, where the child stops.
     ::signal(SIGINT, SIG_DFL);
     ::signal(SIGTERM, SIG_DFL);
-    ::close(channel[0]);
-    RunChild(channel[1], parent, problem, splits, nominal, screened, role, before, max_seconds);
+    // Only its own channel and the standard streams stay open: the ends of other re-fits'
+    // channels, inherited from the parent, would keep those channels from seeing a process end.
+    int own = channel[1];
+    if (own != kChildChannelFd) {
+      if (::dup2(own, kChildChannelFd) < 0) _exit(6);
+      own = kChildChannelFd;
+    }
+    ::close_range(kChildChannelFd + 1, ~0U, 0);
+    RunChild(own, parent, problem, splits, nominal, screened, role, before, max_seconds);
   }
   pid_ = pid;
   ::close(channel[1]);
@@ -351,6 +394,7 @@ std::string RefitProcess::ChildEnd() {
 }
 
 void RefitProcess::Fail(const std::string& why) {
+  if (pid_ > 0) ::kill(pid_, SIGKILL);  // it may be alive and waiting: end it before reaping
   const std::string end = ChildEnd();
   failed_ = true;
   has_shape_stage_ = false;
@@ -358,12 +402,25 @@ void RefitProcess::Fail(const std::string& why) {
   out_.failure = "the re-fit's process " + why + (end.empty() ? "" : " (" + end + ")");
 }
 
+bool RefitProcess::ReceiveFromChild(std::string* message) {
+  if (!WaitReadable(channel_, wait_seconds_)) {
+    char why[120];
+    std::snprintf(why, sizeof(why), "gave no result within %.0f s of wall time and was killed",
+                  wait_seconds_);
+    Fail(why);
+    return false;
+  }
+  try {
+    if (Receive(channel_, message)) return true;
+  } catch (const std::bad_alloc&) {
+  }
+  Fail("ended without a result");
+  return false;
+}
+
 void RefitProcess::RunStageA() {
   std::string message;
-  if (!Receive(channel_, &message)) {
-    Fail("ended without a result");
-    return;
-  }
+  if (!ReceiveFromChild(&message)) return;
   try {
     Reader r(message);
     out_.ok = r.Bool();
@@ -401,7 +458,7 @@ RefitResult RefitProcess::Finish() {
     if (!Send(channel_, w.bytes())) Fail("did not take its last step");
   }
   std::string message;
-  if (!failed_ && !Receive(channel_, &message)) Fail("ended without a result");
+  if (!failed_) ReceiveFromChild(&message);
   if (failed_) return std::move(out_);
   ChildEnd();
   RefitResult& out = out_;
@@ -462,8 +519,8 @@ RefitResult RefitProcess::Finish() {
     for (const auto& q : c.parameters) out.parameters.push_back(out.fit.Parameter(q));
     const double validation = ValidationNrmse(out.fit.evaluations, role_);
     const double sent = out.validation_nrmse_after;
-    if (std::isfinite(sent) &&
-        !(std::fabs(validation - sent) <= 1e-9 * std::max(std::fabs(sent), 1e-300))) {
+    if (std::isfinite(sent) && !(std::fabs(validation - sent) <=
+                                 kRebuiltValidationRelTol * std::max(std::fabs(sent), 1e-300))) {
       char line[200];
       std::snprintf(line, sizeof(line),
                     "the fit built again from the re-fit's process validates at %.9g, the "

@@ -241,6 +241,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   options["min_relative_gain"] = d.options.min_relative_gain;
   options["refit_top"] = d.options.screening.refit_top;
   options["num_threads"] = d.options.screening.num_threads;
+  options["refit_in_processes"] = d.options.screening.refit_in_processes;
   options["tie_tolerance"] = d.options.screening.tie_tolerance;
   options["contender_share"] = d.options.screening.contender_share;
   options["effects"] = d.options.screening.candidates.effects;

@@ -320,10 +320,15 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
     report("re-fitting " + to_refit[i]->candidate.Name() + " (" + std::to_string(i + 1) + "/" +
            std::to_string(to_refit.size()) + ")" + (in_processes ? " in a process" : ""));
     if (in_processes) {
-      runs[i] = std::make_unique<internal::RefitProcess>(problem, splits, nominal, *to_refit[i],
-                                                         d.validation_role,
-                                                         d.nominal_validation_nrmse, budget);
-    } else {
+      try {
+        runs[i] = std::make_unique<internal::RefitProcess>(problem, splits, nominal, *to_refit[i],
+                                                           d.validation_role,
+                                                           d.nominal_validation_nrmse, budget);
+      } catch (const std::runtime_error& e) {
+        report(to_refit[i]->candidate.Name() + ": " + e.what() + "; re-fitted in a thread");
+      }
+    }
+    if (!runs[i]) {
       runs[i] = std::make_unique<internal::RefitRun>(problem, splits, nominal, *to_refit[i],
                                                      d.validation_role, d.nominal_validation_nrmse,
                                                      budget);

@@ -103,7 +103,7 @@ class RefitRun : public RefitSteps {
 /// A RefitRun in a child process of this one (fork), for problems that Ipopt solves: Ipopt's code
 /// runs one solve at a time in a process (it is not thread-safe), so a round's re-fits in threads
 /// wait for each other; in processes they solve side by side. The child runs RunStageA() at once,
-/// then the step the parent asks for and Finish(), and sends the result back through a socket:
+/// then the step the parent asks for and Finish(), and sends the result back through a socket pair:
 /// every field but the fit, and of the fit the solver result of its solve with that solve's start
 /// values and free set and the option the re-fit kept. The parent builds the fit again with
 /// FitSession::ResultOf (the covariance and the evaluations, the same computation on the same
@@ -112,7 +112,7 @@ class RefitRun : public RefitSteps {
 /// without a result (a crash, a signal) gives a failed re-fit saying so.
 class RefitProcess : public RefitSteps {
  public:
-  /// Forks the child, which starts stage A. std::runtime_error when the pipes or fork fail.
+  /// Forks the child, which starts stage A. std::runtime_error when the socket pair or fork fails.
   RefitProcess(const estimators::Problem& problem, const std::vector<estimators::SplitData>& splits,
                const estimators::FitResult& nominal, const CandidateScore& screened,
                const std::string& role, double before, double max_seconds);
@@ -132,6 +132,8 @@ class RefitProcess : public RefitSteps {
  private:
   void Fail(const std::string& why);
   std::string ChildEnd();
+  // Waits for the child's next message (RefitProcess's wait limit); Fail()s on none.
+  bool ReceiveFromChild(std::string* message);
 
   const estimators::Problem& problem_;
   const std::vector<estimators::SplitData>& splits_;
@@ -139,14 +141,16 @@ class RefitProcess : public RefitSteps {
   const CandidateScore& screened_;
   std::string role_;
   double before_;
+  double wait_seconds_;
   int pid_ = -1;
   int channel_ = -1;  // a socket to the child
   bool commanded_ = false, failed_ = false, has_shape_stage_ = false;
   RefitResult out_;
 };
 
-/// Whether a round re-fits in processes (RefitProcess): the problem is solved by Ipopt and more
-/// than one re-fit may run at once.
+/// Whether a round can re-fit in processes (RefitProcess): the problem is solved by Ipopt, more
+/// than one re-fit may run at once, and no regularisation term pulls toward the values at
+/// formulation (RegularizationReference::kInitial: the parent could not rebuild the child's).
 bool RefitsInProcesses(const estimators::Problem& problem, int threads);
 
 /// The whole re-fit of one screened candidate (RefitRun's steps in order, stage B included).

@@ -113,6 +113,7 @@ est::Problem NominalProblem() {
 struct Case {
   Diagnosis diagnosis;
   est::FitResult nominal;
+  std::vector<std::string> progress;  // the screening's progress lines
 };
 
 Case RunCase(bool withheld, bool refit_in_processes = false, int refit_top = 5) {
@@ -133,7 +134,10 @@ Case RunCase(bool withheld, bool refit_in_processes = false, int refit_top = 5) 
   options.refit_in_processes = refit_in_processes;
   options.refit_top = refit_top;
   options.num_threads = 2;  // re-fits side by side, so that processes are used where asked
-  options.progress = [](const std::string& line) { std::cout << line << "\n"; };
+  options.progress = [&c](const std::string& line) {
+    std::cout << line << "\n";
+    c.progress.push_back(line);
+  };
   c.diagnosis = ScreenAndRefit(problem, splits, c.nominal, options);
   std::cout << c.diagnosis.FullReport();
   return c;
@@ -250,6 +254,13 @@ TEST(ScreenAndRefit, RefitsInProcessesEqualRefitsInThreads) {
   constexpr int kRefits = 3;
   const Case processes = RunCase(true, true, kRefits);
   const Case threads = RunCase(true, false, kRefits);
+  auto in_a_process = [](const Case& c) {
+    int n = 0;
+    for (const std::string& line : c.progress) n += line.find(" in a process") != line.npos;
+    return n;
+  };
+  EXPECT_EQ(in_a_process(processes), kRefits);
+  EXPECT_EQ(in_a_process(threads), 0);
   // Both runs compute the same floating-point operations in the same order.
   constexpr double kSameComputation = 1e-12;
   auto near = [](double a, double b) {

@@ -99,6 +99,10 @@ struct FlexibleReference {
   std::string BriefReport() const;
 };
 
+/// The solver FitFlexibleReference solves `problem`'s reference with: Ceres under multiple
+/// shooting (its continuity then penalised), else the problem's own.
+std::string FlexibleReferenceSolver(const estimators::Problem& problem);
+
 /// Fits the flexible reference of `problem` from the nominal fit `nominal` (see the file comment).
 FlexibleReference FitFlexibleReference(const estimators::Problem& problem,
                                        const std::vector<estimators::SplitData>& splits,

@@ -203,8 +203,9 @@ struct ScreeningOptions {
   /// larger). A re-fit whose stage A is stopped by it is reported as not converged, never ranked:
   /// an unattended diagnosis must not hang on one candidate (a ripple re-fit on EMPS took 150 s
   /// where the nominal fit takes 0.8 s). A single iteration is not interrupted (a payload's
-  /// unmeasured angle once made MUMPS reallocate for minutes within one). CPU time, not wall time:
-  /// waiting for Ipopt's process-wide lock or for a core of a loaded machine does not spend it, so
+  /// unmeasured angle once made MUMPS reallocate for minutes within one). User CPU time, not wall
+  /// time: waiting for Ipopt's process-wide lock or for a core of a loaded machine does not spend
+  /// it, nor does the kernel's time (page faults), so
   /// the diagnosis' outcome does not depend on the machine's load (with a wall budget a Dahl re-fit
   /// on the withheld pendulum missed its grid when other work shared the cores). The automatic
   /// value still comes from the nominal solve's wall time, which load lengthens: a loaded machine
@@ -228,11 +229,14 @@ struct ScreeningOptions {
   /// thread-safe, so its solves in threads wait for each other), run each re-fit in a child
   /// process (fork) whose result comes back through a socket; the fit is then built again in this
   /// process from the child's solver point (FitSession::ResultOf). The results are those of the
-  /// re-fits in threads (test). Off by default: each child faults in the memory it writes
-  /// (copy-on-write), which on the 2-core virtual machine of docs/performance.md cost about 3 s of
-  /// kernel time per re-fit and made the EMPS diagnosis slower (106 s against 97 s in threads);
-  /// with more cores than re-fits' solver time waits for Ipopt's lock it may pay. Ceres problems
-  /// re-fit in threads either way.
+  /// re-fits in threads where the budget does not stop a re-fit (test; a budget that binds stops
+  /// at a point that depends on timing either way). Off by default: each child faults in the
+  /// memory it writes (copy-on-write), which on the 2-core virtual machine of docs/performance.md
+  /// cost about 3 s of kernel time per re-fit and made the EMPS diagnosis slower (106 s against
+  /// 97 s in threads); on a machine with more cores, where threads leave cores idle while their
+  /// solves wait for Ipopt's lock, it may pay (not measured). Ceres problems, and problems with a
+  /// regularisation toward the initial values, re-fit in threads either way (a child that cannot
+  /// be forked too).
   bool refit_in_processes = false;
   /// Progress lines ("screening coulomb (1/7)"); none when empty. Called from the worker
   /// threads, one call at a time.

@@ -322,7 +322,6 @@ RefitProcess::RefitProcess(const est::Problem& problem, const std::vector<est::S
       nominal_(nominal),
       screened_(screened),
       role_(role),
-      before_(before),
       wait_seconds_(std::max(kMinWaitSeconds, kWaitBudgetFactor * max_seconds)) {
   const Candidate& c = screened.candidate;
   out_.candidate = c;

@@ -140,7 +140,6 @@ class RefitProcess : public RefitSteps {
   const estimators::FitResult& nominal_;
   const CandidateScore& screened_;
   std::string role_;
-  double before_;
   double wait_seconds_;
   int pid_ = -1;
   int channel_ = -1;  // a socket to the child

@@ -5,11 +5,13 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "app.h"
 #include "graybox/models/block.h"
 #include "graybox/util/did_you_mean.h"
+#include "graybox/util/read_file.h"
 
 namespace graybox::app {
 
@@ -115,11 +117,10 @@ std::map<std::string, double> LoadParameterValues(const std::string& given,
                              "run folder with a result.json, got a folder without one");
     }
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ProblemFileError(At(path), "cannot read the parameter file: file not found");
-  std::ostringstream text;
-  text << in.rdbuf();
-  const std::string s = text.str();
+  std::string why;
+  const std::optional<std::string> text = util::ReadWholeFile(path, &why);
+  if (!text) throw ProblemFileError(At(path), "cannot read the parameter file: " + why);
+  const std::string& s = *text;
   const auto first = s.find_first_not_of(" \t\r\n");
   const bool json = path.size() >= 5 && path.compare(path.size() - 5, 5, ".json") == 0;
   const std::map<std::string, double> values =

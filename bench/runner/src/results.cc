@@ -1,6 +1,7 @@
 // A bench run's results (results.h): records as JSON, bench.json / .csv / .md, read back,
 // shards merged.
 #include "graybox/bench/results.h"
+#include "graybox/util/read_file.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -285,16 +287,14 @@ BenchRun LoadBenchRun(const std::string& path) {
   std::error_code ec;
   const std::string file =
       fs::is_directory(path, ec) ? (fs::path(path) / "bench.json").string() : path;
-  std::ifstream in(file, std::ios::binary);
-  if (!in || fs::is_directory(file, ec)) {
+  const std::optional<std::string> text = util::ReadWholeFile(file);
+  if (!text) {
     throw std::invalid_argument(file + ": cannot read the bench results: " +
                                 (fs::exists(file, ec) ? "not a readable file"
                                                       : "no such file (a bench output folder "
                                                         "holds bench.json)"));
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseBenchJson(text.str(), file);
+  return ParseBenchJson(*text, file);
 }
 
 void SortByIndex(std::vector<CaseRecord>* records) {

@@ -6,6 +6,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <optional>
 
 #include <algorithm>
 #include <cerrno>
@@ -24,6 +25,7 @@
 
 #include "graybox/bench/results.h"
 #include "graybox/estimators/fit/fit.h"
+#include "graybox/util/read_file.h"
 #include "graybox/util/write_file.h"
 
 extern char** environ;
@@ -47,11 +49,9 @@ std::string Fixed(const char* fmt, double v) {
   return buf;
 }
 
+// The file's text, "" when it cannot be read (a record or log the case did not write).
 std::string ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return util::ReadWholeFile(path).value_or(std::string());
 }
 
 // The last `lines` lines of a text.

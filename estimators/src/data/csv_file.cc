@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "graybox/models/block.h"
+#include "graybox/util/read_file.h"
 
 namespace graybox::estimators {
 namespace {
@@ -284,13 +286,11 @@ CsvTable ReadCsv(const std::string& path, const CsvOptions& options) {
                                 std::to_string(kMaxCsvBytes) + " bytes, got " +
                                 std::to_string(bytes) + " (convert it to a .mat file)");
   }
-  std::ifstream file(path, std::ios::binary);
-  if (!file) {
+  const std::optional<std::string> text = util::ReadWholeFile(path);
+  if (!text) {
     throw std::invalid_argument("csv_file: '" + path + "': file exists but cannot be read");
   }
-  std::ostringstream buffer;
-  buffer << file.rdbuf();
-  return ParseCsv(buffer.str(), options, path);
+  return ParseCsv(*text, options, path);
 }
 
 }  // namespace graybox::estimators

@@ -4,11 +4,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "graybox/util/did_you_mean.h"
+#include "graybox/util/read_file.h"
 
 namespace graybox::estimators::toml_io {
 
@@ -25,19 +27,14 @@ toml::table ParseToml(const std::string& text, const std::string& path) {
 }
 
 std::string ReadFileText(const std::string& path, const std::string& what) {
-  std::ifstream in(path, std::ios::binary);
-  std::error_code ec;
-  if (!in || std::filesystem::is_directory(path, ec)) {
+  std::string why;
+  std::optional<std::string> text = util::ReadWholeFile(path, &why);
+  if (!text) {
     SourceLocation where;
     where.file = path;
-    throw ProblemFileError(where, "cannot read the " + what + ": " +
-                                      std::string(std::filesystem::exists(path, ec)
-                                                      ? "permission denied or not a regular file"
-                                                      : "file not found"));
+    throw ProblemFileError(where, "cannot read the " + what + ": " + why);
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return std::move(*text);
 }
 
 std::string Format(double v) {

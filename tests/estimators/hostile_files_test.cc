@@ -236,6 +236,14 @@ TEST(HostileFiles, MatHeadersThatClaimMoreThanTheirElementsHoldAreCorrupt) {
                    "declares 4127195136 bytes, 181 remain"),
             std::string::npos)
       << e;
+  // A struct whose name tag has type 256 (not miINT8) and declares 115 bytes: matio reads only
+  // the tag and the field names right after it, whose tag declares 12,482 fields of 4 bytes for a
+  // struct of 65,792 elements (6.6 GB of pointers); the walk had skipped the 115 bytes.
+  e = ErrorOf([&] { MatFile(dir + "mat_name_of_type_256_struct_fields_6gb.mat"); });
+  EXPECT_NE(e.find("truncated or corrupt MAT file: element at byte 584 (miMATRIX, 304 bytes): its "
+                   "field names sub-element declares 49928 bytes, 105 remain"),
+            std::string::npos)
+      << e;
   // An empty top-level miMATRIX followed by stray elements, one a dimensions tag of 4.3 GB:
   // matio read the empty element's headers from the bytes after it (8.6 GB allocated).
   e = ErrorOf([&] { MatFile(dir + "mat_empty_variable_then_dimensions_4gb.mat"); });

@@ -656,7 +656,9 @@ MatWriter::MatWriter(const std::string& path, MatVersion version, bool compress)
                                 "': expected MatVersion::kV5 or kV73 for writing, got kV4");
   }
   InstallMatioLogger();
-  impl_->mat = Mat_CreateVer(path.c_str(), nullptr,
+  // A fixed header text (matio's default holds the date), so that the same data make the same
+  // bytes.
+  impl_->mat = Mat_CreateVer(path.c_str(), "MATLAB 5.0 MAT-file, written by graybox",
                              version == MatVersion::kV73 ? MAT_FT_MAT73 : MAT_FT_MAT5);
   if (impl_->mat == nullptr) {
     throw std::invalid_argument("mat_file: '" + path +

@@ -208,6 +208,31 @@ TEST(Fit, WarmRefitAfterChangingAFixedValueReusesTheFormulation) {
   EXPECT_LE(warm.solver_result.iterations, cold.solver_result.iterations);
 }
 
+// FitOptions::iteration_callback sees every iteration of both solvers and stops the solve where
+// it returns false: the result is usable, not converged, with the status of an interrupt.
+TEST(Fit, TheCallersIterationCallbackStopsTheSolve) {
+  constexpr int kStopAfter = 2;  // iterations (the full fits take more: checked below)
+  for (const char* file : {"emps_closed_loop.toml", "emps_closed_loop_ceres.toml"}) {
+    const Problem problem = LoadProblem(kProblems + file);
+    const std::vector<SplitData> splits = ShortEstimation(LoadData(problem));
+    const FitResult full = Fit(problem, splits, Quiet());
+    ASSERT_TRUE(full.IsSolutionUsable()) << file << "\n" << full.FullReport();
+    ASSERT_GT(full.solver_result.iterations, kStopAfter) << file;
+    FitOptions options = Quiet();
+    std::vector<int> seen;
+    options.iteration_callback = [&seen](const IterationSummary& it) {
+      seen.push_back(it.iteration);
+      return it.iteration < kStopAfter;
+    };
+    const FitResult stopped = Fit(problem, splits, options);
+    EXPECT_EQ(stopped.solver_result.status_code, SolverStatus::kUserInterrupt) << file;
+    EXPECT_FALSE(stopped.solver_result.success) << file;
+    EXPECT_TRUE(stopped.IsSolutionUsable()) << file;
+    ASSERT_FALSE(seen.empty()) << file;
+    EXPECT_EQ(seen.back(), kStopAfter) << file;
+  }
+}
+
 // ResultOf builds the result of a solve made by another session of the same problem (the
 // diagnosis' re-fits in child processes): from the solver result alone, the parameter table,
 // covariance, initial states and evaluations of the session that solved.

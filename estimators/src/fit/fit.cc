@@ -459,8 +459,9 @@ FitResult FitSession::Solve(const FitResult* start) {
     if (problem_limit > 0.0 && (max_seconds <= 0.0 || problem_limit < max_seconds)) {
       max_seconds = problem_limit;
     }
-    auto record = [&heartbeat, max_seconds, max_cpu_seconds](const IterationSummary& it) {
-      return heartbeat.Record(it, max_seconds, max_cpu_seconds);
+    const IterationCallback& own = s.options.iteration_callback;
+    auto record = [&heartbeat, &own, max_seconds, max_cpu_seconds](const IterationSummary& it) {
+      return heartbeat.Record(it, max_seconds, max_cpu_seconds) && (!own || own(it));
     };
     ipopt.callback = record;
     ceres.callback = record;

@@ -119,6 +119,11 @@ struct FitOptions {
   /// wall time either way.
   enum class BudgetClock { kWall, kThreadUser };
   BudgetClock budget_clock = BudgetClock::kWall;
+  /// Optional: called after every solver iteration, after the budget's check, from the solving
+  /// thread; returning false stops the solve like the budget (status kUserInterrupt: usable, not
+  /// converged). A caller's own stopping test, such as the diagnosis' divergence test of its
+  /// re-fits (screening.h).
+  IterationCallback iteration_callback;
   /// Compute the covariance after solving.
   bool compute_covariance = true;
   /// Evaluate every split after solving (simulation, equation error, N-step NRMS).

@@ -58,7 +58,8 @@ RefitRun::RefitRun(const est::Problem& problem, const std::vector<est::SplitData
       role_(role),
       before_(before),
       max_seconds_(max_seconds),
-      started_(std::chrono::steady_clock::now()) {}
+      started_(std::chrono::steady_clock::now()),
+      divergence_(nominal.solver_result.cost) {}
 
 double RefitRun::CpuElapsed() const {
   return cpu_spent_ + (running_ ? util::ThreadUserSeconds() - cpu_mark_ : 0.0);
@@ -74,12 +75,26 @@ bool RefitRun::BudgetLeft() {
 
 est::FitResult RefitRun::TimedSolve(const est::FitResult* start) {
   const auto t0 = std::chrono::steady_clock::now();
+  divergence_.Reset();
   est::FitResult r = session_->Solve(start);
+  if (divergence_.fired() && r.solver_result.status_code == est::SolverStatus::kUserInterrupt) {
+    char line[320];
+    std::snprintf(line, sizeof(line),
+                  "diverging: Ipopt's dual infeasibility above %.0e x its start (%.3g) with the "
+                  "cost above %.0f x the nominal fit's (%.6g) in %d iterations (stopped at "
+                  "iteration %d, cost %.4g)",
+                  kDivergenceGrowth, divergence_.start(), kDivergenceCost,
+                  divergence_.nominal_cost(), kDivergenceIterations, divergence_.fired_at(),
+                  divergence_.cost_at_stop());
+    r.solver_result.message = line;
+    out_.stages.push_back("solve " + std::to_string(solves_ + 1) + " stopped: " + line);
+  }
   solve_wall_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& [what, seconds] : r.seconds) {
     if (what == "solve") solver_seconds_ += seconds;
   }
   ++solves_;
+  iterations_ += (iterations_.empty() ? "" : "+") + std::to_string(r.solver_result.iterations);
   return r;
 }
 
@@ -135,6 +150,10 @@ void RefitRun::StageA() {
     // a re-fit's fresh process, so the outcome does not depend on the load or on where the re-fit
     // runs (a Dahl re-fit missed its grid on a loaded machine with a wall budget).
     fo.budget_clock = est::FitOptions::BudgetClock::kThreadUser;
+    divergence_test_ = aug.estimation.solver == "ipopt";
+    fo.iteration_callback = [this](const est::IterationSummary& it) {
+      return !divergence_test_ || divergence_.Continue(it);
+    };
     session_ =
         std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
     auto& session = session_;
@@ -161,7 +180,11 @@ void RefitRun::StageA() {
     }
     budget_left();
     est::FitResult a = timed_solve(nullptr);
-    if (started_one_step && !a.IsSolutionUsable() && budget_left()) {
+    const auto diverged = [](const est::FitResult& r) {
+      return r.solver_result.status_code == est::SolverStatus::kUserInterrupt &&
+             r.solver_result.message.rfind("diverging", 0) == 0;
+    };
+    if (started_one_step && (!a.IsSolutionUsable() || diverged(a)) && budget_left()) {
       for (std::size_t i = 0; i < c.screened.size(); ++i) {
         session->SetParameterValue(c.screened[i], neutral[i]);
       }
@@ -344,6 +367,9 @@ void RefitRun::StageB() {
       std::string held;
       if (!b.IsSolutionUsable() || !b.solver_result.success) {
         held = "the re-fit with them free stopped with " + b.solver_result.status;
+        if (b.solver_result.message.rfind("diverging", 0) == 0) {
+          held += " (" + b.solver_result.message + ")";
+        }
       } else if (b.solver_result.cost > out.fit.solver_result.cost * (1.0 + 1e-6)) {
         char line[200];
         std::snprintf(line, sizeof(line),
@@ -412,8 +438,11 @@ void RefitRun::Evaluate() {
     if (!out.fit.IsSolutionUsable()) {
       out.failure = "solver: " + out.fit.solver_result.status + " " + out.fit.solver_result.message;
     } else if (!out.fit.solver_result.success) {
-      out.failure = "the solver stopped before converging (" + out.fit.solver_result.status +
-                    " after " + std::to_string(out.fit.solver_result.iterations) + " iterations)";
+      const est::SolverResult& sr = out.fit.solver_result;
+      out.failure = "the solver stopped before converging (" + sr.status + " after " +
+                    std::to_string(sr.iterations) + " iterations" +
+                    (sr.message.rfind("diverging", 0) == 0 ? "; " + sr.message : std::string()) +
+                    ")";
     } else if (!std::isfinite(out.validation_nrmse_after)) {
       out.failure = "the validation simulation did not finish";
     } else {
@@ -430,12 +459,12 @@ void RefitRun::Evaluate() {
 
 RefitResult RefitRun::Finish() {
   if (solves_ > 0) {
-    char line[200];
+    char line[320];
     std::snprintf(
         line, sizeof(line),
-        "%d solve(s): %.3g s wall, %.3g s in the solver, re-fit %.3g s so far (%.3g s "
-        "user CPU of its budget)",
-        solves_, solve_wall_, solver_seconds_,
+        "%d solve(s) of %s iterations: %.3g s wall, %.3g s in the solver, re-fit %.3g s so far "
+        "(%.3g s user CPU of its budget)",
+        solves_, iterations_.c_str(), solve_wall_, solver_seconds_,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count(),
         CpuElapsed());
     out_.stages.push_back(line);

@@ -134,6 +134,18 @@
 //      of the round's best keeps its shapes held.
 // The stages share the re-fit's time budget (ScreeningOptions::refit_max_seconds): once it is
 // spent the remaining grid values and stage B are skipped and A's best point is the re-fit.
+// Divergence test (Ipopt solves; Ceres' trust region never raises its cost): a solve is stopped
+// once, in 5 of its iterations, Ipopt's dual infeasibility (inf_du, the scaled gradient of the
+// Lagrangian) has exceeded 1e4 x its value at the solve's first iteration (at least 1) while the
+// cost was above 10 x the nominal fit's (which the candidate at its neutral value attains, so a
+// re-fit that helps ends below it; 10 x the cost is 3.2 x its RMS residual). The solve then
+// counts as not converged (RefitResult::stages and the failure say "diverging"), and a stage-A
+// solve from the one-step estimate that diverged is solved again from the neutral values. On EMPS
+// the closed-loop output-sensor re-fits (the controller reads the scaled or offset position) ran
+// with inf_du at 1e6-1e12 and the cost 100-10,000 x the nominal fit's until their budgets ended
+// (41-100 iterations, 6-21 s of CPU each, the last iterations the slowest). inf_du alone does
+// not tell: a converging asymmetric-friction re-fit of a sliding mass passed 1e4 x its start on
+// its way below the nominal cost.
 // A re-fit is ok when the solver converged (SolverResult::success: a re-fit stopped at its
 // iteration limit is reported, not ranked), its validation NRMSE is finite, and, with a fixed-step
 // integrator, that NRMSE changes by at most 10 % when the validation splits are simulated again

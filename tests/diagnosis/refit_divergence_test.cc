@@ -1,0 +1,94 @@
+// The divergence test of the re-fits' Ipopt solves (screening.h, "Re-fits"; the private
+// diagnosis/src/divergence_test.h): fed iteration histories of the kind the re-fits report, it
+// stops a solve whose dual infeasibility has grown 1e4-fold while its cost stays far above the
+// nominal fit's, and lets every other one run.
+#include "../../diagnosis/src/divergence_test.h"
+
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace graybox::diagnosis::internal {
+namespace {
+
+using estimators::IterationSummary;
+
+// The nominal fit's cost in these histories (the EMPS closed loop after Coulomb friction: 45.6).
+constexpr double kNominalCost = 45.6;
+
+IterationSummary It(int iteration, double cost, double inf_du) {
+  IterationSummary s;
+  s.iteration = iteration;
+  s.cost = cost;
+  s.optimality = inf_du;
+  return s;
+}
+
+// The index of the first iteration at which Continue() returned false, or -1.
+int StopsAt(DivergenceTest* test, const std::vector<IterationSummary>& history) {
+  test->Reset();
+  for (std::size_t k = 0; k < history.size(); ++k) {
+    if (!test->Continue(history[k])) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+// A closed-loop output-sensor re-fit of EMPS, as it ran until its budget ended: from a start of
+// inf_du 1.2, inf_du 5e6-3e7 from the third iteration on, the cost 1e4 x the nominal's.
+std::vector<IterationSummary> Diverging() {
+  std::vector<IterationSummary> h = {It(0, 4.96e5, 1.2), It(1, 5.29e5, 290), It(2, 4.97e5, 1.8e3)};
+  for (int k = 3; k < 40; ++k) h.push_back(It(k, 5.5e5, 1e7));
+  return h;
+}
+
+TEST(RefitDivergence, StopsASolveWhoseDualInfeasibilityExplodesAboveTheNominalCost) {
+  DivergenceTest test(kNominalCost);
+  // Iterations 3..7 are the five above both marks.
+  EXPECT_EQ(StopsAt(&test, Diverging()), 7);
+  EXPECT_TRUE(test.fired());
+  EXPECT_EQ(test.fired_at(), 7);
+  EXPECT_DOUBLE_EQ(test.start(), 1.2);
+  EXPECT_DOUBLE_EQ(test.cost_at_stop(), 5.5e5);
+  // Reset() forgets the previous solve.
+  test.Reset();
+  EXPECT_FALSE(test.fired());
+}
+
+TEST(RefitDivergence, TheIterationsNeedNotFollowEachOther) {
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 1e5, 1.0)};
+  for (int k = 1; k <= 10; ++k) h.push_back(It(k, 1e5, k % 2 == 0 ? 1e6 : 10.0));
+  // Above at iterations 2, 4, 6, 8, 10: the fifth is the tenth iteration.
+  EXPECT_EQ(StopsAt(&test, h), 10);
+}
+
+TEST(RefitDivergence, ACostBelowTenTimesTheNominalNeverStops) {
+  // A converging re-fit that passes through a large dual infeasibility on its way below the
+  // nominal cost (an asymmetric-friction re-fit of a sliding mass did).
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 300.0, 20.0)};
+  for (int k = 1; k < 60; ++k) h.push_back(It(k, 400.0, 1e9));
+  EXPECT_EQ(StopsAt(&test, h), -1);
+  EXPECT_FALSE(test.fired());
+}
+
+TEST(RefitDivergence, GrowthBelowTenThousandfoldNeverStops) {
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 1e6, 100.0)};
+  for (int k = 1; k < 60; ++k) h.push_back(It(k, 1e6, 0.99e6));
+  EXPECT_EQ(StopsAt(&test, h), -1);
+}
+
+TEST(RefitDivergence, AStartBelowOneCountsAsOne) {
+  // inf_du is scaled: a start of 1e-3 (a warm start at an optimum) must not make 10 a divergence.
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 1e5, 1e-3)};
+  for (int k = 1; k < 20; ++k) h.push_back(It(k, 1e5, 10.0));
+  EXPECT_EQ(StopsAt(&test, h), -1);
+  h.push_back(It(20, 1e5, 2e4));
+  for (int k = 21; k < 25; ++k) h.push_back(It(k, 1e5, 2e4));
+  EXPECT_EQ(StopsAt(&test, h), 24);
+}
+
+}  // namespace
+}  // namespace graybox::diagnosis::internal

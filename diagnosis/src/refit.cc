@@ -44,6 +44,20 @@ void InformationCriteria(const est::FitResult& fit, double* aic, double* bic) {
   *bic = fit_term + k * std::log(n);
 }
 
+RefitResult UnfittedResult(const CandidateScore& screened, double before) {
+  RefitResult out;
+  const Candidate& c = screened.candidate;
+  out.candidate = c;
+  out.effect = c.effect;
+  out.detail = c.detail;
+  out.attachment = c.attachment;
+  out.score = screened.score;
+  out.validation_nrmse_before = before;
+  out.validation_nrmse_after = out.relative_gain = kNaN;
+  out.aic = out.bic = kNaN;
+  return out;
+}
+
 // The re-fit of one candidate, in two stages (see the header): (A) the screened parameters free,
 // started from the score test's one-step estimate (from neutral again when that fails), the shape
 // parameters held; (B) the shape parameters freed too, warm-started from A. B is kept only when
@@ -118,15 +132,7 @@ void RefitRun::StageA() {
   const Candidate& c = screened.candidate;
   RefitResult& out = out_;
   Resume();
-  out.candidate = c;
-  out.effect = c.effect;
-  out.detail = c.detail;
-  out.attachment = c.attachment;
-  out.score = screened.score;
-  out.validation_nrmse_before = before_;
-  out.validation_nrmse_after = kNaN;
-  out.relative_gain = kNaN;
-  out.aic = out.bic = kNaN;
+  out = UnfittedResult(screened, before_);
   try {
     // The option the screening chose (Candidate::option_grids), in the declarative form too.
     std::string option;

@@ -323,15 +323,7 @@ RefitProcess::RefitProcess(const est::Problem& problem, const std::vector<est::S
       screened_(screened),
       role_(role),
       wait_seconds_(std::max(kMinWaitSeconds, kWaitBudgetFactor * max_seconds)) {
-  const Candidate& c = screened.candidate;
-  out_.candidate = c;
-  out_.effect = c.effect;
-  out_.detail = c.detail;
-  out_.attachment = c.attachment;
-  out_.score = screened.score;
-  out_.validation_nrmse_before = before;
-  out_.validation_nrmse_after = out_.relative_gain = kNaN;
-  out_.aic = out_.bic = kNaN;
+  out_ = UnfittedResult(screened, before);
   int channel[2];
   if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, channel) != 0) {
     throw std::runtime_error(std::string("re-fit process: socketpair: ") + std::strerror(errno));

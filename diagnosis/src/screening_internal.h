@@ -26,6 +26,10 @@ CandidateScore Score(const estimators::Problem& problem,
 /// AIC and BIC of a fit from its cost (RSS = 2 cost) and free parameters; NaN without residuals.
 void InformationCriteria(const estimators::FitResult& fit, double* aic, double* bic);
 
+/// A re-fit's result before any solve: the candidate's identity and score, the validation NRMSE
+/// before it, NaN for the figures a fit gives.
+RefitResult UnfittedResult(const CandidateScore& screened, double before);
+
 /// The steps of one re-fit as a round drives them (screening.cc): RunStageA() (stage A with the
 /// profiles over the grids, evaluated), then either RunStageB() (the shape parameters freed,
 /// evaluated again) or HoldShapes(reason) where HasShapeStage(), then Finish(). result() is the

@@ -229,7 +229,16 @@ TEST(Fit, TheCallersIterationCallbackStopsTheSolve) {
     EXPECT_FALSE(stopped.solver_result.success) << file;
     EXPECT_TRUE(stopped.IsSolutionUsable()) << file;
     ASSERT_FALSE(seen.empty()) << file;
+    EXPECT_EQ(seen.front(), 0) << file;  // the starting point is reported too
     EXPECT_EQ(seen.back(), kStopAfter) << file;
+    EXPECT_EQ(stopped.solver_result.iterations, kStopAfter) << file;
+    // The result is the iterate where it stopped: moved from the start, at the cost reported.
+    ASSERT_FALSE(stopped.solver_result.history.empty()) << file;
+    EXPECT_LT(stopped.solver_result.cost, stopped.solver_result.history.front().cost) << file;
+    bool moved = false;
+    for (const FitParameter& p : stopped.parameters)
+      moved = moved || (p.free && p.value != p.initial);
+    EXPECT_TRUE(moved) << file << "\n" << stopped.FullReport();
   }
 }
 

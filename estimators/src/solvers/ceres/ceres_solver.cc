@@ -136,7 +136,9 @@ class ForwardingCallback final : public ceres::IterationCallback {
     s.cost = it.cost;
     s.optimality = it.gradient_max_norm;
     s.seconds = it.cumulative_time_in_seconds;
-    return callback_(s) ? ceres::SOLVER_CONTINUE : ceres::SOLVER_ABORT;
+    // A stop keeps the iterate: Ceres copies its state back only on SOLVER_TERMINATE_SUCCESSFULLY
+    // (SOLVER_ABORT leaves the parameters at the start while final_cost is the iterate's).
+    return callback_(s) ? ceres::SOLVER_CONTINUE : ceres::SOLVER_TERMINATE_SUCCESSFULLY;
   }
 
  private:

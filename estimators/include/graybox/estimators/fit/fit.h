@@ -119,10 +119,11 @@ struct FitOptions {
   /// wall time either way.
   enum class BudgetClock { kWall, kThreadUser };
   BudgetClock budget_clock = BudgetClock::kWall;
-  /// Optional: called after every solver iteration, after the budget's check, from the solving
-  /// thread; returning false stops the solve like the budget (status kUserInterrupt: usable, not
-  /// converged). A caller's own stopping test, such as the diagnosis' divergence test of its
-  /// re-fits (screening.h).
+  /// Optional: called at the starting point (iteration 0) and after every solver iteration, after
+  /// the budget's check, from the solving thread; returning false stops the solve like the budget
+  /// (status kUserInterrupt; the result is the iterate where it stopped: usable, not converged).
+  /// A caller's own stopping test, such as the diagnosis' divergence test of its re-fits
+  /// (screening.h).
   IterationCallback iteration_callback;
   /// Compute the covariance after solving.
   bool compute_covariance = true;

@@ -13,15 +13,25 @@ namespace graybox::diagnosis::internal {
 inline constexpr double kDivergenceGrowth = 1e4;
 /// ... with the cost above this many times the nominal fit's ...
 inline constexpr double kDivergenceCost = 10.0;
-/// ... in this many iterations of one solve (not necessarily in a row) stops it.
+/// ... in this many iterations of one solve (not necessarily in a row; not counting Ipopt's
+/// restoration phase, whose figures are those of its own problem) stops it.
 inline constexpr int kDivergenceIterations = 5;
+/// The start of SolverResult::message of a solve the test stopped (the one mark of a divergence,
+/// also where a re-fit's result crosses a process boundary).
+inline constexpr const char* kDivergedPrefix = "diverging";
+
+/// Whether `r` is a solve the divergence test stopped.
+inline bool Diverged(const estimators::SolverResult& r) {
+  return r.status_code == estimators::SolverStatus::kUserInterrupt &&
+         r.message.rfind(kDivergedPrefix, 0) == 0;
+}
 
 /// The divergence test of one solve at a time: Reset() before each solve, Continue() at each of
 /// its iterations (false: stop).
 class DivergenceTest {
  public:
   /// `nominal_cost`: the cost of the nominal fit, which the candidate at its neutral value attains.
-  explicit DivergenceTest(double nominal_cost = 0.0) : nominal_cost_(nominal_cost) {}
+  explicit DivergenceTest(double nominal_cost) : nominal_cost_(nominal_cost) {}
   void Reset() {
     iterations_ = above_ = 0;
     fired_at_ = -1;
@@ -33,7 +43,8 @@ class DivergenceTest {
       start_ = std::max(1.0, it.optimality);
       return true;
     }
-    if (it.optimality > kDivergenceGrowth * start_ && it.cost > kDivergenceCost * nominal_cost_) {
+    if (!it.restoration && it.optimality > kDivergenceGrowth * start_ &&
+        it.cost > kDivergenceCost * nominal_cost_) {
       ++above_;
     }
     if (above_ < kDivergenceIterations) return true;

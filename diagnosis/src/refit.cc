@@ -94,10 +94,10 @@ est::FitResult RefitRun::TimedSolve(const est::FitResult* start) {
   if (divergence_.fired() && r.solver_result.status_code == est::SolverStatus::kUserInterrupt) {
     char line[320];
     std::snprintf(line, sizeof(line),
-                  "diverging: Ipopt's dual infeasibility above %.0e x its start (%.3g) with the "
+                  "%s: Ipopt's dual infeasibility above %.0e x its start (%.3g) with the "
                   "cost above %.0f x the nominal fit's (%.6g) in %d iterations (stopped at "
                   "iteration %d, cost %.4g)",
-                  kDivergenceGrowth, divergence_.start(), kDivergenceCost,
+                  kDivergedPrefix, kDivergenceGrowth, divergence_.start(), kDivergenceCost,
                   divergence_.nominal_cost(), kDivergenceIterations, divergence_.fired_at(),
                   divergence_.cost_at_stop());
     r.solver_result.message = line;
@@ -186,17 +186,14 @@ void RefitRun::StageA() {
     }
     budget_left();
     est::FitResult a = timed_solve(nullptr);
-    const auto diverged = [](const est::FitResult& r) {
-      return r.solver_result.status_code == est::SolverStatus::kUserInterrupt &&
-             r.solver_result.message.rfind("diverging", 0) == 0;
-    };
-    if (started_one_step && (!a.IsSolutionUsable() || diverged(a)) && budget_left()) {
+    if (started_one_step && (!a.IsSolutionUsable() || Diverged(a.solver_result)) && budget_left()) {
+      const std::string first_status = a.solver_result.status;
       for (std::size_t i = 0; i < c.screened.size(); ++i) {
         session->SetParameterValue(c.screened[i], neutral[i]);
       }
       a = timed_solve(nullptr);
-      out.stages.push_back("from the one-step estimate: " + a.solver_result.status +
-                           "; restarted from the neutral values");
+      out.stages.push_back("from the one-step estimate: " + first_status +
+                           "; restarted from the neutral values: " + a.solver_result.status);
     }
     // A solve replaces the best so far when it converged and validates better (or the best so
     // far did not converge, or does not simulate on the validation splits).
@@ -373,7 +370,7 @@ void RefitRun::StageB() {
       std::string held;
       if (!b.IsSolutionUsable() || !b.solver_result.success) {
         held = "the re-fit with them free stopped with " + b.solver_result.status;
-        if (b.solver_result.message.rfind("diverging", 0) == 0) {
+        if (Diverged(b.solver_result)) {
           held += " (" + b.solver_result.message + ")";
         }
       } else if (b.solver_result.cost > out.fit.solver_result.cost * (1.0 + 1e-6)) {
@@ -447,8 +444,7 @@ void RefitRun::Evaluate() {
       const est::SolverResult& sr = out.fit.solver_result;
       out.failure = "the solver stopped before converging (" + sr.status + " after " +
                     std::to_string(sr.iterations) + " iterations" +
-                    (sr.message.rfind("diverging", 0) == 0 ? "; " + sr.message : std::string()) +
-                    ")";
+                    (Diverged(sr) ? "; " + sr.message : std::string()) + ")";
     } else if (!std::isfinite(out.validation_nrmse_after)) {
       out.failure = "the validation simulation did not finish";
     } else {

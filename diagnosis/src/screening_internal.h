@@ -56,6 +56,9 @@ class RefitRun : public RefitSteps {
   RefitRun(const estimators::Problem& problem, const std::vector<estimators::SplitData>& splits,
            const estimators::FitResult& nominal, const CandidateScore& screened,
            const std::string& role, double before, double max_seconds);
+  // Its sessions' iteration callback holds `this`.
+  RefitRun(const RefitRun&) = delete;
+  RefitRun& operator=(const RefitRun&) = delete;
   void StageA();
   /// True when stage A left a usable fit and the candidate has shape parameters to free.
   bool HasShapeStage() const override;

@@ -1,8 +1,8 @@
 // The divergence test of the re-fits' Ipopt solves (screening.h, "Re-fits"; the private
-// diagnosis/src/divergence_test.h): fed iteration histories of the kind the re-fits report, it
-// stops a solve whose dual infeasibility has grown 1e4-fold while its cost stays far above the
-// nominal fit's, and lets every other one run.
-#include "../../diagnosis/src/divergence_test.h"
+// diagnosis/src/divergence_test.h, on this test's include path): fed iteration histories of the
+// kind the re-fits report, it stops a solve whose dual infeasibility has grown 1e4-fold while its
+// cost stays far above the nominal fit's, and lets every other one run.
+#include "divergence_test.h"
 
 #include <vector>
 
@@ -16,11 +16,12 @@ using estimators::IterationSummary;
 // The nominal fit's cost in these histories (the EMPS closed loop after Coulomb friction: 45.6).
 constexpr double kNominalCost = 45.6;
 
-IterationSummary It(int iteration, double cost, double inf_du) {
+IterationSummary It(int iteration, double cost, double inf_du, bool restoration = false) {
   IterationSummary s;
   s.iteration = iteration;
   s.cost = cost;
   s.optimality = inf_du;
+  s.restoration = restoration;
   return s;
 }
 
@@ -49,9 +50,28 @@ TEST(RefitDivergence, StopsASolveWhoseDualInfeasibilityExplodesAboveTheNominalCo
   EXPECT_EQ(test.fired_at(), 7);
   EXPECT_DOUBLE_EQ(test.start(), 1.2);
   EXPECT_DOUBLE_EQ(test.cost_at_stop(), 5.5e5);
-  // Reset() forgets the previous solve.
-  test.Reset();
+}
+
+TEST(RefitDivergence, EachSolveCountsItsOwnIterations) {
+  DivergenceTest test(kNominalCost);
+  // Four iterations above both marks in one solve, then a new solve with one: no stop, and the
+  // start is the new solve's first iteration.
+  std::vector<IterationSummary> first = {It(0, 1e5, 1.0)};
+  for (int k = 1; k <= 4; ++k) first.push_back(It(k, 1e5, 1e6));
+  EXPECT_EQ(StopsAt(&test, first), -1);
+  const std::vector<IterationSummary> second = {It(0, 1e5, 50.0), It(1, 1e5, 1e6)};
+  EXPECT_EQ(StopsAt(&test, second), -1);
   EXPECT_FALSE(test.fired());
+  EXPECT_DOUBLE_EQ(test.start(), 50.0);
+}
+
+TEST(RefitDivergence, RestorationIterationsDoNotCount) {
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 1e5, 1.0)};
+  for (int k = 1; k < 30; ++k) h.push_back(It(k, 1e5, 1e7, /*restoration=*/true));
+  EXPECT_EQ(StopsAt(&test, h), -1);
+  for (int k = 30; k < 35; ++k) h.push_back(It(k, 1e5, 1e7));
+  EXPECT_EQ(StopsAt(&test, h), 34);
 }
 
 TEST(RefitDivergence, TheIterationsNeedNotFollowEachOther) {
@@ -80,13 +100,14 @@ TEST(RefitDivergence, GrowthBelowTenThousandfoldNeverStops) {
 }
 
 TEST(RefitDivergence, AStartBelowOneCountsAsOne) {
-  // inf_du is scaled: a start of 1e-3 (a warm start at an optimum) must not make 10 a divergence.
+  // inf_du is scaled: a start of 1e-3 (a warm start at an optimum) must not make 100 a
+  // divergence.
   DivergenceTest test(kNominalCost);
   std::vector<IterationSummary> h = {It(0, 1e5, 1e-3)};
-  for (int k = 1; k < 20; ++k) h.push_back(It(k, 1e5, 10.0));
+  for (int k = 1; k < 20; ++k) h.push_back(It(k, 1e5, 100.0));
   EXPECT_EQ(StopsAt(&test, h), -1);
-  h.push_back(It(20, 1e5, 2e4));
-  for (int k = 21; k < 25; ++k) h.push_back(It(k, 1e5, 2e4));
+  EXPECT_DOUBLE_EQ(test.start(), 1.0);
+  for (int k = 20; k < 25; ++k) h.push_back(It(k, 1e5, 2e4));
   EXPECT_EQ(StopsAt(&test, h), 24);
 }
 

@@ -656,10 +656,12 @@ MatWriter::MatWriter(const std::string& path, MatVersion version, bool compress)
                                 "': expected MatVersion::kV5 or kV73 for writing, got kV4");
   }
   InstallMatioLogger();
-  // A fixed header text (matio's default holds the date), so that the same data make the same
-  // bytes.
-  impl_->mat = Mat_CreateVer(path.c_str(), "MATLAB 5.0 MAT-file, written by graybox",
-                             version == MatVersion::kV73 ? MAT_FT_MAT73 : MAT_FT_MAT5);
+  // A fixed header text in v5 (matio's default holds the date), so that the same data make the
+  // same bytes; v7.3 keeps matio's own (HDF5 stamps its objects with times anyway).
+  impl_->mat = Mat_CreateVer(
+      path.c_str(),
+      version == MatVersion::kV73 ? nullptr : "MATLAB 5.0 MAT-file, written by graybox",
+      version == MatVersion::kV73 ? MAT_FT_MAT73 : MAT_FT_MAT5);
   if (impl_->mat == nullptr) {
     throw std::invalid_argument("mat_file: '" + path +
                                 "': cannot create the file (missing directory or no permission?)" +

@@ -245,11 +245,15 @@ class V5Walker {
       elements *= dim;
     }
     pos = next;
-    d = Sub(pos, end, "name", true, &t, &next, &cut);
-    if (!d.empty() || cut) return d;
     // matio reads a name only from a miINT8 element (or one packed in its tag); of a tag of any
-    // other type it reads the 8 bytes of the tag alone and takes what follows as the next part.
-    if (!t.small && t.type != kMiInt8) next = pos + 8;
+    // other type it reads the 8 bytes of the tag alone, whatever size it declares, and takes what
+    // follows as the next part.
+    if (ReadTag(pos, &t) && !t.small && t.type != kMiInt8 && pos + 8 <= end) {
+      next = pos + 8;
+    } else {
+      d = Sub(pos, end, "name", true, &t, &next, &cut);
+      if (!d.empty() || cut) return d;
+    }
     // A cell or struct field has an empty name: matio skips 8 bytes for its name tag and reads
     // the data right after, whatever the tag declares.
     if (depth > 0 && !t.small && t.bytes != 0) {

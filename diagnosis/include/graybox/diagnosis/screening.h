@@ -138,9 +138,10 @@
 // once, in 5 of its iterations, Ipopt's dual infeasibility (inf_du, the scaled gradient of the
 // Lagrangian) has exceeded 1e4 x its value at the solve's first iteration (at least 1) while the
 // cost was above 10 x the nominal fit's (which the candidate at its neutral value attains, so a
-// re-fit that helps ends below it; 10 x the cost is 3.2 x its RMS residual). The solve then
-// counts as not converged (RefitResult::stages and the failure say "diverging"), and a stage-A
-// solve from the one-step estimate that diverged is solved again from the neutral values. On EMPS
+// re-fit that helps ends below it; 10 x the cost is 3.2 x its RMS residual); iterations of Ipopt's
+// restoration phase do not count. The solve then counts as not converged (RefitResult::stages and
+// the failure say "diverging"), and when stage A's first solve, from the one-step estimate,
+// diverged, it is solved again from the neutral values. On EMPS
 // the closed-loop output-sensor re-fits (the controller reads the scaled or offset position) ran
 // with inf_du at 1e6-1e12 and the cost 100-10,000 x the nominal fit's until their budgets ended
 // (41-100 iterations, 6-21 s of CPU each, the last iterations the slowest). inf_du alone does

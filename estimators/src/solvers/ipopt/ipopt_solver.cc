@@ -195,7 +195,7 @@ class NlpAdapter : public Ipopt::TNLP {
     return Record(Unlocked([&] { return nlp_.HessianValues(x, sigma, lambda, values); }));
   }
 
-  bool intermediate_callback(Ipopt::AlgorithmMode, Ipopt::Index iter, Ipopt::Number obj,
+  bool intermediate_callback(Ipopt::AlgorithmMode mode, Ipopt::Index iter, Ipopt::Number obj,
                              Ipopt::Number inf_pr, Ipopt::Number inf_du, Ipopt::Number,
                              Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
                              Ipopt::Index, const Ipopt::IpoptData*,
@@ -205,6 +205,7 @@ class NlpAdapter : public Ipopt::TNLP {
     s.cost = obj;
     s.constraint_violation = inf_pr;
     s.optimality = inf_du;
+    s.restoration = mode == Ipopt::RestorationPhaseMode;
     s.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time_).count();
     result_->history.push_back(s);

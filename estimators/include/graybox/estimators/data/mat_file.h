@@ -132,8 +132,9 @@ enum class MatNumericClass {
 /// requires finite values to fit in float; otherwise std::invalid_argument names the variable,
 /// the element and the value. Names must be valid MATLAB identifiers (letter first, then letters,
 /// digits, '_'; at most 63 characters). kV4 cannot be written. `compress` applies zlib to v5
-/// (making it a v7 file) and to v7.3 datasets. The 116-byte header text is fixed ("MATLAB 5.0
-/// MAT-file, written by graybox", no date), so that the same data make the same bytes.
+/// (making it a v7 file) and to v7.3 datasets. A v5 (and v7) file's 116-byte header text is fixed
+/// ("MATLAB 5.0 MAT-file, written by graybox", no date), so that the same data make the same
+/// bytes.
 class MatWriter {
  public:
   MatWriter(const std::string& path, MatVersion version = MatVersion::kV5, bool compress = false);

@@ -211,6 +211,8 @@ std::string ReportJson(const RunReport& report) {
                          {"cost", it.cost},
                          {"constraint_violation", it.constraint_violation},
                          {"optimality", it.optimality},
+                         {"regularization", it.regularization},
+                         {"restoration", it.restoration},
                          {"seconds", it.seconds}});
     }
     j["solver_history"] = history;

@@ -13,6 +13,10 @@ namespace graybox::diagnosis::internal {
 inline constexpr double kDivergenceGrowth = 1e4;
 /// ... with the cost above this many times the nominal fit's ...
 inline constexpr double kDivergenceCost = 10.0;
+/// ... or above this many times its start whatever the cost (a runaway: the re-fits that
+/// converged in the diagnosis tests stayed below 2.5e9 x; a Dahl re-fit of EMPS passed 1e17 x
+/// and one of its iterations then held Ipopt's lock for 12 s, Hessian regularised by 1e16) ...
+inline constexpr double kRunawayGrowth = 1e12;
 /// ... in this many iterations of one solve (not necessarily in a row; not counting Ipopt's
 /// restoration phase, whose figures are those of its own problem) stops it.
 inline constexpr int kDivergenceIterations = 5;
@@ -36,16 +40,19 @@ class DivergenceTest {
     iterations_ = above_ = 0;
     fired_at_ = -1;
     start_ = 1.0;
-    cost_ = 0.0;
+    cost_ = largest_growth_ = 0.0;
   }
   bool Continue(const estimators::IterationSummary& it) {
     if (iterations_++ == 0) {
       start_ = std::max(1.0, it.optimality);
       return true;
     }
-    if (!it.restoration && it.optimality > kDivergenceGrowth * start_ &&
-        it.cost > kDivergenceCost * nominal_cost_) {
+    if (it.restoration) return true;
+    const double growth = it.optimality / start_;
+    if (growth > kRunawayGrowth ||
+        (growth > kDivergenceGrowth && it.cost > kDivergenceCost * nominal_cost_)) {
       ++above_;
+      largest_growth_ = std::max(largest_growth_, growth);
     }
     if (above_ < kDivergenceIterations) return true;
     fired_at_ = it.iteration;
@@ -57,12 +64,14 @@ class DivergenceTest {
   int fired_at() const { return fired_at_; }
   double start() const { return start_; }
   double cost_at_stop() const { return cost_; }
+  /// The largest inf_du / start of the iterations that counted.
+  double largest_growth() const { return largest_growth_; }
   double nominal_cost() const { return nominal_cost_; }
 
  private:
   double nominal_cost_;
   int iterations_ = 0, above_ = 0, fired_at_ = -1;
-  double start_ = 1.0, cost_ = 0.0;
+  double start_ = 1.0, cost_ = 0.0, largest_growth_ = 0.0;
 };
 
 }  // namespace graybox::diagnosis::internal

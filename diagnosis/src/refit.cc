@@ -92,14 +92,14 @@ est::FitResult RefitRun::TimedSolve(const est::FitResult* start) {
   divergence_.Reset();
   est::FitResult r = session_->Solve(start);
   if (divergence_.fired() && r.solver_result.status_code == est::SolverStatus::kUserInterrupt) {
-    char line[320];
+    char line[400];
     std::snprintf(line, sizeof(line),
-                  "%s: Ipopt's dual infeasibility above %.0e x its start (%.3g) with the "
-                  "cost above %.0f x the nominal fit's (%.6g) in %d iterations (stopped at "
-                  "iteration %d, cost %.4g)",
-                  kDivergedPrefix, kDivergenceGrowth, divergence_.start(), kDivergenceCost,
-                  divergence_.nominal_cost(), kDivergenceIterations, divergence_.fired_at(),
-                  divergence_.cost_at_stop());
+                  "%s: in %d iterations Ipopt's dual infeasibility exceeded %.0e x its start "
+                  "(%.3g) with the cost above %.0f x the nominal fit's (%.6g), or %.0e x at any "
+                  "cost (largest %.3g x; stopped at iteration %d, cost %.4g)",
+                  kDivergedPrefix, kDivergenceIterations, kDivergenceGrowth, divergence_.start(),
+                  kDivergenceCost, divergence_.nominal_cost(), kRunawayGrowth,
+                  divergence_.largest_growth(), divergence_.fired_at(), divergence_.cost_at_stop());
     r.solver_result.message = line;
     out_.stages.push_back("solve " + std::to_string(solves_ + 1) + " stopped: " + line);
   }
@@ -156,10 +156,11 @@ void RefitRun::StageA() {
     // a re-fit's fresh process, so the outcome does not depend on the load or on where the re-fit
     // runs (a Dahl re-fit missed its grid on a loaded machine with a wall budget).
     fo.budget_clock = est::FitOptions::BudgetClock::kThreadUser;
-    divergence_test_ = aug.estimation.solver == "ipopt";
-    fo.iteration_callback = [this](const est::IterationSummary& it) {
-      return !divergence_test_ || divergence_.Continue(it);
-    };
+    if (aug.estimation.solver == "ipopt") {
+      fo.iteration_callback = [this](const est::IterationSummary& it) {
+        return divergence_.Continue(it);
+      };
+    }
     session_ =
         std::make_unique<est::FitSession>(aug, AugmentedSplits(splits, aug.built.NumStates()), fo);
     auto& session = session_;

@@ -101,9 +101,8 @@ class RefitRun : public RefitSteps {
   bool running_ = false;
   double solve_wall_ = 0.0, solver_seconds_ = 0.0;
   int solves_ = 0;
-  bool divergence_test_ = false;  // Ipopt solves the problem: its solves are tested
-  DivergenceTest divergence_;     // of the current solve (divergence_test.h)
-  std::string iterations_;        // per solve, "12+3+..."
+  DivergenceTest divergence_;  // of the current solve (divergence_test.h)
+  std::string iterations_;     // per solve, "12+3+..."
   bool failed_ = false;
   estimators::Problem aug_;
   std::unique_ptr<estimators::FitSession> session_;

@@ -1,7 +1,7 @@
 // The divergence test of the re-fits' Ipopt solves (screening.h, "Re-fits"; the private
 // diagnosis/src/divergence_test.h, on this test's include path): fed iteration histories of the
 // kind the re-fits report, it stops a solve whose dual infeasibility has grown 1e4-fold while its
-// cost stays far above the nominal fit's, and lets every other one run.
+// cost stays far above the nominal fit's, or 1e12-fold at any cost, and lets every other one run.
 #include "divergence_test.h"
 
 #include <vector>
@@ -88,6 +88,34 @@ TEST(RefitDivergence, ACostBelowTenTimesTheNominalNeverStops) {
   DivergenceTest test(kNominalCost);
   std::vector<IterationSummary> h = {It(0, 300.0, 20.0)};
   for (int k = 1; k < 60; ++k) h.push_back(It(k, 400.0, 1e9));
+  EXPECT_EQ(StopsAt(&test, h), -1);
+  EXPECT_FALSE(test.fired());
+}
+
+// The Dahl re-fit of EMPS with its shape freed (stage B), as Ipopt printed it: the cost below the
+// nominal fit's, inf_du 1e14-1e20 from the third iteration on; its tenth iteration then spent 12 s
+// in MUMPS (Hessian regularised by 1e16) while the other re-fits waited for Ipopt's lock.
+std::vector<IterationSummary> RunawayBelowTheNominalCost() {
+  return {It(0, 52.93, 0.175),   It(1, 48.37, 4.61),    It(2, 44.68, 1.17e17),
+          It(3, 44.14, 9.23e19), It(4, 44.29, 9.23e17), It(5, 44.14, 3.41e17),
+          It(6, 43.98, 1.74e17), It(7, 43.99, 1.74e17), It(8, 44.01, 2.59e14)};
+}
+
+TEST(RefitDivergence, ARunawayStopsAtAnyCost) {
+  DivergenceTest test(kNominalCost);
+  // Iterations 2..6 are the five above 1e12 x the start (which counts as 1).
+  EXPECT_EQ(StopsAt(&test, RunawayBelowTheNominalCost()), 6);
+  EXPECT_TRUE(test.fired());
+  EXPECT_DOUBLE_EQ(test.start(), 1.0);
+  EXPECT_DOUBLE_EQ(test.largest_growth(), 9.23e19);
+}
+
+TEST(RefitDivergence, GrowthUpToTheRunawayMarkBelowTheCostMarkNeverStops) {
+  // The asymmetric-friction re-fit of the synthetic slide that converged reached 2.5e9 x its
+  // start with the cost below the nominal fit's; 1e12 x itself does not count.
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 40.0, 1.0)};
+  for (int k = 1; k < 60; ++k) h.push_back(It(k, 40.0, k % 2 == 0 ? 1e12 : 2.5e9));
   EXPECT_EQ(StopsAt(&test, h), -1);
   EXPECT_FALSE(test.fired());
 }

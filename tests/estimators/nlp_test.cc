@@ -154,6 +154,27 @@ TEST(Nlp, IpoptAndCeresAgreeOnLeastSquares) {
   EXPECT_NEAR(ceres.w[1], -0.7, kRecovery);
 }
 
+// f = x^4 / 4 - x^2 / 2 from x = 0.1, where f'' = 3 x^2 - 1 < 0: Ipopt perturbs the Hessian to
+// take its first step (IterationSummary::regularization > 0) and none near the minimum x = 1,
+// where f'' = 2.
+TEST(Nlp, IpoptReportsItsHessianRegularizationPerIteration) {
+  const std::vector<Expr> z = Expr::Symbols("x", 1);
+  const Function fn("double_well", {{"z", z}, {"d", {}}},
+                    {{"f", {0.25 * z[0] * z[0] * z[0] * z[0] - 0.5 * z[0] * z[0]}}});
+  Nlp nlp(Eigen::VectorXd::Constant(1, 0.1), Eigen::VectorXd::Constant(1, -1e20),
+          Eigen::VectorXd::Constant(1, 1e20));
+  nlp.AddGroup({"double_well", fn, Eigen::MatrixXi::Zero(1, 1), Eigen::MatrixXd(0, 1),
+                Eigen::VectorXd(0), Eigen::VectorXd(0)});
+  const SolverResult r = SolveWithIpopt(nlp);
+  ASSERT_TRUE(r.success) << r.FullReport();
+  constexpr double kMinimumTolerance = 1e-6;
+  EXPECT_NEAR(r.w[0], 1.0, kMinimumTolerance);
+  ASSERT_GE(r.history.size(), 2u);
+  EXPECT_GT(r.history[1].regularization, 0.0) << "the first step needs a perturbed Hessian";
+  EXPECT_EQ(r.history.back().regularization, 0.0);
+  for (const IterationSummary& it : r.history) EXPECT_FALSE(it.restoration);
+}
+
 // log(x) is NaN for x < 0: a trial step there must make Ipopt back off, not crash.
 TEST(Nlp, NonFiniteTrialPointsAreReturnedToTheSolver) {
   const std::vector<Expr> z = Expr::Symbols("x", 1);

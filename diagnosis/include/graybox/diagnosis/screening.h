@@ -138,15 +138,19 @@
 // once, in 5 of its iterations, Ipopt's dual infeasibility (inf_du, the scaled gradient of the
 // Lagrangian) has exceeded 1e4 x its value at the solve's first iteration (at least 1) while the
 // cost was above 10 x the nominal fit's (which the candidate at its neutral value attains, so a
-// re-fit that helps ends below it; 10 x the cost is 3.2 x its RMS residual); iterations of Ipopt's
-// restoration phase do not count. The solve then counts as not converged (RefitResult::stages and
+// re-fit that helps ends below it; 10 x the cost is 3.2 x its RMS residual), or has exceeded
+// 1e12 x that value whatever the cost (a runaway); iterations of Ipopt's restoration phase do not
+// count. The solve then counts as not converged (RefitResult::stages and
 // the failure say "diverging"), and when stage A's first solve, from the one-step estimate,
 // diverged, it is solved again from the neutral values. On EMPS
 // the closed-loop output-sensor re-fits (the controller reads the scaled or offset position) ran
 // with inf_du at 1e6-1e12 and the cost 100-10,000 x the nominal fit's until their budgets ended
 // (41-100 iterations, 6-21 s of CPU each, the last iterations the slowest). inf_du alone does
 // not tell: a converging asymmetric-friction re-fit of a sliding mass passed 1e4 x its start on
-// its way below the nominal cost.
+// its way below the nominal cost (2.5e9 x, the most of any re-fit that converged in the diagnosis
+// tests). A runaway is stopped at any cost: the Dahl re-fit of EMPS with its shape freed went to
+// 1e17-1e20 x below the nominal cost, and one of its iterations then spent 12 s in MUMPS (Ipopt
+// regularised the Hessian by 1e16) while the round's other Ipopt re-fits waited for the lock.
 // A re-fit is ok when the solver converged (SolverResult::success: a re-fit stopped at its
 // iteration limit is reported, not ranked), its validation NRMSE is finite, and, with a fixed-step
 // integrator, that NRMSE changes by at most 10 % when the validation splits are simulated again

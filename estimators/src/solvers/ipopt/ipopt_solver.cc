@@ -196,15 +196,16 @@ class NlpAdapter : public Ipopt::TNLP {
   }
 
   bool intermediate_callback(Ipopt::AlgorithmMode mode, Ipopt::Index iter, Ipopt::Number obj,
-                             Ipopt::Number inf_pr, Ipopt::Number inf_du, Ipopt::Number,
-                             Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
-                             Ipopt::Index, const Ipopt::IpoptData*,
-                             Ipopt::IpoptCalculatedQuantities*) override {
+                             Ipopt::Number inf_pr, Ipopt::Number inf_du, Ipopt::Number /*mu*/,
+                             Ipopt::Number /*d_norm*/, Ipopt::Number regularization_size,
+                             Ipopt::Number /*alpha_du*/, Ipopt::Number /*alpha_pr*/, Ipopt::Index,
+                             const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
     IterationSummary s;
     s.iteration = static_cast<int>(iter);
     s.cost = obj;
     s.constraint_violation = inf_pr;
     s.optimality = inf_du;
+    s.regularization = regularization_size;
     s.restoration = mode == Ipopt::RestorationPhaseMode;
     s.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time_).count();

@@ -211,7 +211,7 @@ std::string ReportJson(const RunReport& report) {
                          {"cost", it.cost},
                          {"constraint_violation", it.constraint_violation},
                          {"optimality", it.optimality},
-                         {"regularization", it.regularization},
+                         {"hessian_perturbation", it.hessian_perturbation},
                          {"restoration", it.restoration},
                          {"seconds", it.seconds}});
     }

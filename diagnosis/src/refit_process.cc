@@ -186,7 +186,7 @@ void PutSolverResult(Writer* w, const est::SolverResult& r) {
     w->Put(it.constraint_violation);
     w->Put(it.optimality);
     w->Put(it.seconds);
-    w->Put(it.regularization);
+    w->Put(it.hessian_perturbation);
     w->Put(it.restoration);
   }
 }
@@ -214,7 +214,7 @@ est::SolverResult GetSolverResult(Reader* r) {
     it.constraint_violation = r->Double();
     it.optimality = r->Double();
     it.seconds = r->Double();
-    it.regularization = r->Double();
+    it.hessian_perturbation = r->Double();
     it.restoration = r->Bool();
     s.history.push_back(it);
   }

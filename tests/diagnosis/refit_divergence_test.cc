@@ -106,8 +106,26 @@ TEST(RefitDivergence, ARunawayStopsAtAnyCost) {
   // Iterations 2..6 are the five above 1e12 x the start (which counts as 1).
   EXPECT_EQ(StopsAt(&test, RunawayBelowTheNominalCost()), 6);
   EXPECT_TRUE(test.fired());
+  EXPECT_EQ(test.fired_at(), 6);
+  EXPECT_DOUBLE_EQ(test.cost_at_stop(), 43.98);
   EXPECT_DOUBLE_EQ(test.start(), 1.0);
   EXPECT_DOUBLE_EQ(test.largest_growth(), 9.23e19);
+  // The next solve starts afresh: its largest growth is its own.
+  const std::vector<IterationSummary> next = {It(0, 44.0, 1.0), It(1, 44.0, 3e13)};
+  EXPECT_EQ(StopsAt(&test, next), -1);
+  EXPECT_DOUBLE_EQ(test.largest_growth(), 3e13);
+}
+
+TEST(RefitDivergence, BothKindsOfIterationCountTowardTheFive) {
+  // Three iterations above 1e4 x with the cost above 10 x the nominal's, then two runaways
+  // below it.
+  DivergenceTest test(kNominalCost);
+  std::vector<IterationSummary> h = {It(0, 1e5, 1.0)};
+  for (int k = 1; k <= 3; ++k) h.push_back(It(k, 1e5, 1e6));
+  h.push_back(It(4, 40.0, 1e9));  // neither: growth below 1e12 with the cost below 10 x
+  for (int k = 5; k <= 6; ++k) h.push_back(It(k, 40.0, 1e13));
+  EXPECT_EQ(StopsAt(&test, h), 6);
+  EXPECT_DOUBLE_EQ(test.largest_growth(), 1e13);
 }
 
 TEST(RefitDivergence, GrowthUpToTheRunawayMarkBelowTheCostMarkNeverStops) {

@@ -155,9 +155,9 @@ TEST(Nlp, IpoptAndCeresAgreeOnLeastSquares) {
 }
 
 // f = x^4 / 4 - x^2 / 2 from x = 0.1, where f'' = 3 x^2 - 1 < 0: Ipopt perturbs the Hessian to
-// take its first step (IterationSummary::regularization > 0) and none near the minimum x = 1,
+// take its first step (IterationSummary::hessian_perturbation > 0) and none near the minimum x = 1,
 // where f'' = 2.
-TEST(Nlp, IpoptReportsItsHessianRegularizationPerIteration) {
+TEST(Nlp, IpoptReportsItsHessianPerturbationPerIteration) {
   const std::vector<Expr> z = Expr::Symbols("x", 1);
   const Function fn("double_well", {{"z", z}, {"d", {}}},
                     {{"f", {0.25 * z[0] * z[0] * z[0] * z[0] - 0.5 * z[0] * z[0]}}});
@@ -170,8 +170,8 @@ TEST(Nlp, IpoptReportsItsHessianRegularizationPerIteration) {
   constexpr double kMinimumTolerance = 1e-6;
   EXPECT_NEAR(r.w[0], 1.0, kMinimumTolerance);
   ASSERT_GE(r.history.size(), 2u);
-  EXPECT_GT(r.history[1].regularization, 0.0) << "the first step needs a perturbed Hessian";
-  EXPECT_EQ(r.history.back().regularization, 0.0);
+  EXPECT_GT(r.history[1].hessian_perturbation, 0.0) << "the first step needs a perturbed Hessian";
+  EXPECT_EQ(r.history.back().hessian_perturbation, 0.0);
   for (const IterationSummary& it : r.history) EXPECT_FALSE(it.restoration);
 }
 

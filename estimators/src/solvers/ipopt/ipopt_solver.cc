@@ -4,6 +4,7 @@
 
 #include <pthread.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -205,7 +206,7 @@ class NlpAdapter : public Ipopt::TNLP {
     s.cost = obj;
     s.constraint_violation = inf_pr;
     s.optimality = inf_du;
-    s.regularization = regularization_size;
+    s.hessian_perturbation = regularization_size;
     s.restoration = mode == Ipopt::RestorationPhaseMode;
     s.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time_).count();
@@ -415,12 +416,17 @@ std::string SolverResult::FullReport() const {
   os << "  variables " << w.size() << ", constraints " << lambda.size()
      << ", max constraint violation " << constraint_violation << "\n";
   if (!message.empty()) os << "  " << message << "\n";
-  os << "  iter  cost              constraint viol.  optimality    time [s]\n";
+  os << "  iter  cost              constraint viol.  optimality    Hessian pert.  time [s]\n";
   for (const IterationSummary& s : history) {
-    char line[160];
-    std::snprintf(line, sizeof line, "  %4d  %.10e  %.3e         %.3e     %.3f", s.iteration,
-                  s.cost, s.constraint_violation, s.optimality, s.seconds);
+    char line[200];
+    std::snprintf(line, sizeof line, "  %4d%s %.10e  %.3e         %.3e     %.3e      %.3f",
+                  s.iteration, s.restoration ? "r" : " ", s.cost, s.constraint_violation,
+                  s.optimality, s.hessian_perturbation, s.seconds);
     os << line << "\n";
+  }
+  if (std::any_of(history.begin(), history.end(),
+                  [](const IterationSummary& s) { return s.restoration; })) {
+    os << "  (r: an iteration of Ipopt's restoration phase)\n";
   }
   return os.str();
 }

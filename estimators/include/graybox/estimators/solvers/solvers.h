@@ -38,7 +38,7 @@ struct IterationSummary {
   double constraint_violation = 0.0;  // Ipopt's inf_pr (0 for Ceres)
   double optimality = 0.0;            // Ipopt's inf_du; Ceres' max |gradient|
   double seconds = 0.0;               // since the solve started
-  double regularization = 0.0;        // Ipopt's Hessian perturbation delta_w (lg(rg)); 0 Ceres
+  double hessian_perturbation = 0.0;  // Ipopt: delta_w of the step (lg(rg) = log10); Ceres: 0
   bool restoration = false;           // Ipopt's restoration phase (its figures are that phase's)
 };
 

@@ -14,8 +14,8 @@ inline constexpr double kDivergenceGrowth = 1e4;
 /// ... with the cost above this many times the nominal fit's ...
 inline constexpr double kDivergenceCost = 10.0;
 /// ... or above this many times its start whatever the cost (a runaway: the re-fits that
-/// converged in the diagnosis tests stayed below 2.5e9 x; a Dahl re-fit of EMPS passed 1e17 x
-/// and one of its iterations then held Ipopt's lock for 12 s, Hessian regularised by 1e16) ...
+/// converged in the diagnosis tests reached at most 2.5e9 x; a Dahl re-fit of EMPS passed 1e17 x
+/// and one of its iterations then held Ipopt's lock for 12 s, Hessian perturbed by 1e16) ...
 inline constexpr double kRunawayGrowth = 1e12;
 /// ... in this many iterations of one solve (not necessarily in a row; not counting Ipopt's
 /// restoration phase, whose figures are those of its own problem) stops it.

@@ -149,8 +149,9 @@
 // not tell: a converging asymmetric-friction re-fit of a sliding mass passed 1e4 x its start on
 // its way below the nominal cost (2.5e9 x, the most of any re-fit that converged in the diagnosis
 // tests). A runaway is stopped at any cost: the Dahl re-fit of EMPS with its shape freed went to
-// 1e17-1e20 x below the nominal cost, and one of its iterations then spent 12 s in MUMPS (Ipopt
-// regularised the Hessian by 1e16) while the round's other Ipopt re-fits waited for the lock.
+// 1e14-1e20 x its start while below the nominal cost, and one of its iterations then spent 12 s
+// in MUMPS (Ipopt perturbed the Hessian by 1e16) while the round's other Ipopt re-fits waited for
+// the lock.
 // A re-fit is ok when the solver converged (SolverResult::success: a re-fit stopped at its
 // iteration limit is reported, not ranked), its validation NRMSE is finite, and, with a fixed-step
 // integrator, that NRMSE changes by at most 10 % when the validation splits are simulated again

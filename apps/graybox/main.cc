@@ -48,7 +48,8 @@ void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
   cmd->add_option(
          "--refit-seconds", o->refit_seconds,
          "user CPU-time budget of each re-fit in seconds, over all its solves (default 0: 20 x the "
-         "nominal solve, at least 10 s); a re-fit whose first stage it stops is reported "
+         "nominal solve's user CPU time, at least 10 s); a re-fit whose first stage it stops is "
+         "reported "
          "as not converged")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--refit-in-processes", o->refit_in_processes,

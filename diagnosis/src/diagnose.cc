@@ -294,6 +294,7 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   if (screening.refit_max_seconds == 0.0) {
     screening.refit_max_seconds = AutomaticRefitBudget(d.nominal);
   }
+  d.refit_budget_seconds = screening.refit_max_seconds;
   for (int round = 1;; ++round) {
     screening.progress = [&, round](const std::string& line) {
       progress("round " + std::to_string(round) + ": " + line);

@@ -244,6 +244,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   options["refit_in_processes"] = d.options.screening.refit_in_processes;
   options["tie_tolerance"] = d.options.screening.tie_tolerance;
   options["contender_share"] = d.options.screening.contender_share;
+  options["refit_max_seconds"] = d.options.screening.refit_max_seconds;
   options["effects"] = d.options.screening.candidates.effects;
   options["fit_reference"] = d.options.fit_reference;
   options["max_structured_remaining"] = d.options.max_structured_remaining;
@@ -269,7 +270,9 @@ std::string DiagnosisJson(const DiagnosisReport& d,
   Json nominal = FitJson(d.nominal);
   nominal["validation_nrmse"] = d.nominal_validation_nrmse;
   nominal["integration_warning"] = d.nominal_integration_warning;
+  nominal["solve_thread_user_seconds"] = d.nominal.solve_thread_user_seconds;
   j["nominal"] = nominal;
+  j["refit_budget_seconds"] = d.refit_budget_seconds;
   j["localization"] = LocalizationJson(d.nominal_localization);
   Json reference;
   reference["ok"] = d.reference.ok;

@@ -240,11 +240,7 @@ void ScreeningOptions::Validate() const {
 }
 
 double AutomaticRefitBudget(const est::FitResult& nominal) {
-  double nominal_solve = 0.0;
-  for (const auto& [what, seconds] : nominal.seconds) {
-    if (what == "solve") nominal_solve = seconds;
-  }
-  return std::max(kAutoBudgetFactor * nominal_solve, kAutoBudgetFloor);
+  return std::max(kAutoBudgetFactor * nominal.solve_thread_user_seconds, kAutoBudgetFloor);
 }
 
 Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::SplitData>& splits,

@@ -655,9 +655,9 @@ Diagnosis Screen(const Truth& truth, bool lugre = false) {
   std::cout << nominal.BriefReport() << "\n";
   EXPECT_TRUE(nominal.IsSolutionUsable());
   ScreeningOptions options;
-  // The automatic re-fit budget is wall time (20 x the nominal solve, at least 10 s): on a loaded
-  // machine it stops re-fits early and the ranking depends on the load. A budget that never binds
-  // on these small problems keeps the test deterministic.
+  // A budget that binds stops a re-fit at an iteration that depends on the CPU time its iterations
+  // take (cache and frequency effects of a loaded machine); one that never binds on these small
+  // problems keeps the test deterministic.
   options.refit_max_seconds = kRefitSecondsThatNeverBind;
   options.candidates.effects = DefaultEffects();
   options.candidates.lugre_presliding = lugre;
@@ -807,9 +807,9 @@ TEST(CandidatesScreening, PayloadIsRankedFirstAheadOfItsGravityAlone) {
   std::cout << nominal.BriefReport() << "\n";
   ASSERT_TRUE(nominal.IsSolutionUsable());
   ScreeningOptions options;
-  // The automatic re-fit budget is wall time (20 x the nominal solve, at least 10 s): on a loaded
-  // machine it stops re-fits early and the ranking depends on the load. A budget that never binds
-  // on these small problems keeps the test deterministic.
+  // A budget that binds stops a re-fit at an iteration that depends on the CPU time its iterations
+  // take (cache and frequency effects of a loaded machine); one that never binds on these small
+  // problems keeps the test deterministic.
   options.refit_max_seconds = kRefitSecondsThatNeverBind;
   options.candidates.effects = DefaultEffects();
   options.refit_top = 1;

@@ -54,9 +54,9 @@ DiagnoseOptions Options() {
   o.screening.candidates.effects = {"coulomb", "asymmetric_friction", "stribeck",
                                     "viscous", "power_law_viscous",   "input_delay"};
   o.screening.refit_top = 2;
-  // The automatic re-fit budget is wall time (20 x the nominal solve, at least 10 s): on a loaded
-  // machine it stops grid profiles early and the results depend on the load. These tests compare
-  // results (two thread counts, a selection), so the budget must never bind.
+  // A budget that binds stops a grid profile at a point that depends on the CPU time its
+  // iterations take (cache and frequency effects of a loaded machine). These tests compare results
+  // (two thread counts, a selection), so the budget must never bind.
   o.screening.refit_max_seconds = kRefitSecondsThatNeverBind;
   o.progress = [](const std::string& line) { std::cout << line << "\n"; };
   return o;

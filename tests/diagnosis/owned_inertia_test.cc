@@ -28,8 +28,8 @@ namespace est = graybox::estimators;
 using testing::kPi;
 using testing::TestSeed;
 
-// Re-fit budget [s] that this small problem never reaches (a wall-time budget would make the
-// ranking depend on the machine's load).
+// Re-fit budget [s] that this small problem never reaches (a budget that binds would make the
+// ranking depend on the CPU time of its iterations).
 constexpr double kRefitSecondsThatNeverBind = 600.0;
 
 // The joint: seed 002's constants (drives.h), damping, motor and link viscous friction.

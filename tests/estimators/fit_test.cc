@@ -3,6 +3,7 @@
 // side by side give the results of fits run one after another, and a re-fit after changing a
 // fixed parameter reuses the formulation and lands where a fresh fit does.
 #include <cmath>
+#include <iostream>
 #include <map>
 #include <string>
 #include <thread>
@@ -239,6 +240,37 @@ TEST(Fit, TheCallersIterationCallbackStopsTheSolve) {
     for (const FitParameter& p : stopped.parameters)
       moved = moved || (p.free && p.value != p.initial);
     EXPECT_TRUE(moved) << file << "\n" << stopped.FullReport();
+  }
+}
+
+// FitResult::solve_thread_user_seconds is the solving thread's user CPU time during the solve: more
+// than nothing, never more than the solve's wall time (one thread cannot use more); a budget on
+// that clock (FitOptions::BudgetClock::kThreadUser) of a quarter of it stops the same solve early,
+// with a usable iterate.
+TEST(Fit, TheSolvesThreadCpuTimeIsMeasuredAndABudgetOnItStopsTheSolve) {
+  // getrusage's thread times advance in steps of at most a scheduler tick (4 ms at HZ=250).
+  constexpr double kClockStep = 0.004;
+  constexpr double kBudgetShare = 0.25;
+  for (const char* file : {"emps_closed_loop.toml", "emps_closed_loop_ceres.toml"}) {
+    const Problem problem = LoadProblem(kProblems + file);
+    const std::vector<SplitData> splits = ShortEstimation(LoadData(problem));
+    const FitResult full = Fit(problem, splits, Quiet());
+    ASSERT_TRUE(full.IsSolutionUsable()) << file;
+    double wall = 0.0;
+    for (const auto& [phase, seconds] : full.seconds) {
+      if (phase == "solve") wall = seconds;
+    }
+    EXPECT_GT(full.solve_thread_user_seconds, 0.0) << file;
+    EXPECT_LE(full.solve_thread_user_seconds, wall + kClockStep) << file;
+    std::cout << file << ": solve " << wall << " s wall, " << full.solve_thread_user_seconds
+              << " s user CPU of its thread, " << full.solver_result.iterations << " iterations\n";
+    FitOptions options = Quiet();
+    options.budget_clock = FitOptions::BudgetClock::kThreadUser;
+    options.max_solve_seconds = kBudgetShare * full.solve_thread_user_seconds;
+    const FitResult stopped = Fit(problem, splits, options);
+    EXPECT_EQ(stopped.solver_result.status_code, SolverStatus::kUserInterrupt) << file;
+    EXPECT_TRUE(stopped.IsSolutionUsable()) << file;
+    EXPECT_LT(stopped.solver_result.iterations, full.solver_result.iterations) << file;
   }
 }
 

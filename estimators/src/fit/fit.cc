@@ -448,6 +448,7 @@ FitResult FitSession::Solve(const FitResult* start) {
               : warm_primal  ? ", primal warm start"
                              : ""));
   t = Timer();
+  const double cpu_start = util::ThreadUserSeconds();
   {
     Heartbeat heartbeat(s.options.progress, s.options.progress_interval_seconds, spec.solver);
     // The caller's limit on its clock; the problem's on the wall clock (the smaller wins when
@@ -470,6 +471,7 @@ FitResult FitSession::Solve(const FitResult* start) {
                                : SolveWithIpopt(nlp, ipopt, warm_primal ? &warm : nullptr);
   }
   result.seconds.emplace_back("solve", t.Seconds());
+  result.solve_thread_user_seconds = util::ThreadUserSeconds() - cpu_start;
   s.Progress("  " + result.solver_result.BriefReport());
   s.Complete(&result);
   return result;

@@ -174,6 +174,9 @@ struct DiagnosisReport {
   std::string problem;
   std::string validation_role;  // "validation", "test" or "all"
   DiagnoseOptions options;
+  /// The budget of every re-fit in every round [s of the re-fit thread's user CPU time]:
+  /// options.screening.refit_max_seconds, or AutomaticRefitBudget(nominal) when that is 0.
+  double refit_budget_seconds = 0.0;
 
   estimators::FitResult nominal;
   /// IntegrationCheck (screening.h) of the nominal fit: empty when its validation error holds with

@@ -226,8 +226,9 @@ struct ScreeningOptions {
   /// it, nor does the kernel's time (page faults), so
   /// the diagnosis' outcome does not depend on the machine's load (with a wall budget a Dahl re-fit
   /// on the withheld pendulum missed its grid when other work shared the cores). The automatic
-  /// value still comes from the nominal solve's wall time, which load lengthens: a loaded machine
-  /// gets a more generous budget, never a shorter one.
+  /// value comes from the nominal solve on the same clock (its thread's user CPU time), so load
+  /// changes neither side (from the nominal's wall time, the DC motor's budget was 43 s in one
+  /// run and 56 s in another, and its later rounds ran to it).
   double refit_max_seconds = 0.0;
   /// Stage B (the shape parameters freed, file comment) runs only for the round's contenders:
   /// re-fits that are ok after stage A and whose validation NRMSE gain (before - after) is at
@@ -332,8 +333,10 @@ struct Diagnosis {
 /// Screens every candidate of EnumerateCandidates(problem, options.candidates) against the
 /// nominal fit `nominal` (estimators::Fit(problem, splits)) and re-fits the best. See the file
 /// comment.
-/// The automatic re-fit budget of ScreeningOptions::refit_max_seconds = 0: 20 times the solve
-/// time of `nominal` (FitResult::seconds "solve"), at least 10 s.
+/// The automatic re-fit budget of ScreeningOptions::refit_max_seconds = 0: 20 times the user CPU
+/// time of `nominal`'s solve on its thread (FitResult::solve_thread_user_seconds, the clock the
+/// re-fits' budgets are measured on), at least 10 s. A nominal result that was not solved in this
+/// process (solve_thread_user_seconds 0) gets the 10 s.
 double AutomaticRefitBudget(const estimators::FitResult& nominal);
 
 Diagnosis ScreenAndRefit(const estimators::Problem& problem,

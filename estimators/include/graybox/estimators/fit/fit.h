@@ -173,6 +173,11 @@ struct FitResult {
   std::vector<DerivativeCheckLine> derivative_checks;
   /// Wall time per phase: "build", "solve", "covariance", "evaluate".
   std::vector<std::pair<std::string, double>> seconds;
+  /// User-mode CPU time of the thread that ran the solve, during the solve [s]: the clock of
+  /// FitOptions::BudgetClock::kThreadUser (work on other threads, such as Ceres' own with
+  /// num_threads > 1, is not in it; waiting for Ipopt's lock or for a core is not either). 0 for
+  /// a result that was not solved here (FitSession::ResultOf).
+  double solve_thread_user_seconds = 0.0;
 
   /// The solver's verdict on its final point (SolverResult::IsSolutionUsable).
   bool IsSolutionUsable() const { return solver_result.IsSolutionUsable(); }

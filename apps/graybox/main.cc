@@ -47,7 +47,7 @@ void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
       ->delimiter(',');
   cmd->add_option(
          "--refit-seconds", o->refit_seconds,
-         "user CPU-time budget of each re-fit in seconds, over all its solves (default 0: 20 x the "
+         "user CPU-time budget of each re-fit in seconds, over all its solves (default 0: 25 x the "
          "nominal solve's user CPU time, at least 10 s); a re-fit whose first stage it stops is "
          "reported "
          "as not converged")

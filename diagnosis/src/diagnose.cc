@@ -117,7 +117,13 @@ std::string Verdict(const DiagnosisReport& d) {
     if (!d.stop_reason.empty()) v += " (" + d.stop_reason + ")";
     return v;
   }
-  const bool gap = std::isfinite(d.gap);
+  // The shares of the gap only while the accepted effects end at or above the reference's error:
+  // below it (at the noise floor with the reference, or an effect its static networks cannot
+  // represent, such as a chamber's leak) the shares add up to more than 100 %, so the verdict
+  // gives the shares of the nominal error and says that the whole gap is closed.
+  const bool beyond_reference =
+      std::isfinite(d.gap) && d.final_validation_nrmse < d.reference.validation_nrmse;
+  const bool gap = std::isfinite(d.gap) && !beyond_reference;
   for (std::size_t i = 0; i < d.accepted.size(); ++i) {
     const AcceptedEffect& a = d.accepted[i];
     if (i > 0) v += i + 1 == d.accepted.size() ? " and " : ", ";
@@ -135,6 +141,10 @@ std::string Verdict(const DiagnosisReport& d) {
   v += d.validation_role + " NRMSE " + Format("%.4g", d.nominal_validation_nrmse) + " -> " +
        Format("%.4g", d.final_validation_nrmse);
   if (gap) v += ", flexible reference " + Format("%.4g", d.reference.validation_nrmse);
+  if (beyond_reference) {
+    v += "; below the flexible reference's " + Format("%.4g", d.reference.validation_nrmse) +
+         ": the whole gap closed";
+  }
   v += ")";
   if (!d.explained) {
     v +=

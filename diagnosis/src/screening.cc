@@ -43,7 +43,7 @@ std::string Format(const char* fmt, double v) {
 }
 
 // The automatic re-fit budget (ScreeningOptions::refit_max_seconds = 0).
-constexpr double kAutoBudgetFactor = 20.0;
+constexpr double kAutoBudgetFactor = 25.0;
 constexpr double kAutoBudgetFloor = 10.0;
 
 // Regularised lower incomplete gamma P(a, x) by its series (x < a + 1) and upper Q(a, x) by the
@@ -239,6 +239,62 @@ void ScreeningOptions::Validate() const {
   candidates.Validate();
 }
 
+namespace internal {
+
+void RankRefits(double tie, double margin, std::vector<RefitResult>* ranked) {
+  std::vector<RefitResult>& refits = *ranked;
+  auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
+  // By group, then by validation NRMSE (failures keep their order). A comparator that called two
+  // NRMSEs within the tie tolerance equal would not be an ordering (a ~ b and b ~ c with a < c),
+  // so ties are settled afterwards: each run of re-fits of one group whose NRMSEs lie within
+  // tie_tolerance of the run's first (best) one is ordered by BIC.
+  std::stable_sort(refits.begin(), refits.end(), [&](const RefitResult& a, const RefitResult& b) {
+    if (group(a) != group(b)) return group(a) < group(b);
+    if (group(a) == 2) return false;
+    return a.validation_nrmse_after < b.validation_nrmse_after;
+  });
+  const std::size_t n = refits.size();
+  for (std::size_t i = 0; i < n && group(refits[i]) != 2;) {
+    const double best = refits[i].validation_nrmse_after;
+    std::size_t j = i + 1;
+    while (j < n && group(refits[j]) == group(refits[i]) &&
+           refits[j].validation_nrmse_after - best <= tie * refits[j].validation_nrmse_after) {
+      ++j;
+    }
+    std::stable_sort(refits.begin() + static_cast<std::ptrdiff_t>(i),
+                     refits.begin() + static_cast<std::ptrdiff_t>(j),
+                     [](const RefitResult& a, const RefitResult& b) { return a.bic < b.bic; });
+    i = j;
+  }
+  // Parsimony between nested effects: a re-fit whose effect reduces to a simpler re-fitted one on
+  // the same attachment (Candidate::reduces_to) moves to just after it unless it is better by more
+  // than nested_margin of the nominal validation NRMSE. The general one moves down rather than the
+  // simple one up, so that the re-fits ranked between them, which beat the simple one, stay ahead
+  // of it. The position is checked again after a move (its new occupant may be a general one too);
+  // reduces_to has no cycles, and the moves are bounded besides.
+  std::size_t moves = 0;
+  for (std::size_t i = 0; i < n && group(refits[i]) == 0;) {
+    bool moved = false;
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const RefitResult& general = refits[i];
+      const RefitResult& simple = refits[j];
+      const std::vector<std::string>& r = general.candidate.reduces_to;
+      if (group(simple) == 0 && simple.attachment == general.attachment &&
+          std::find(r.begin(), r.end(), simple.effect) != r.end() &&
+          simple.validation_nrmse_after - general.validation_nrmse_after <= margin) {
+        std::rotate(refits.begin() + static_cast<std::ptrdiff_t>(i),
+                    refits.begin() + static_cast<std::ptrdiff_t>(i + 1),
+                    refits.begin() + static_cast<std::ptrdiff_t>(j + 1));
+        moved = true;
+        break;
+      }
+    }
+    if (!moved || ++moves > n * n) ++i;
+  }
+}
+
+}  // namespace internal
+
 double AutomaticRefitBudget(const est::FitResult& nominal) {
   return std::max(kAutoBudgetFactor * nominal.solve_thread_user_seconds, kAutoBudgetFloor);
 }
@@ -367,34 +423,8 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
     d.refits[i] = runs[i]->Finish();
     runs[i].reset();
   });
-  auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
-  const double tie = options.tie_tolerance;
-  std::stable_sort(d.refits.begin(), d.refits.end(),
-                   [&](const RefitResult& a, const RefitResult& b) {
-                     if (group(a) != group(b)) return group(a) < group(b);
-                     if (group(a) == 2) return false;
-                     const double ea = a.validation_nrmse_after, eb = b.validation_nrmse_after;
-                     if (std::fabs(ea - eb) <= tie * std::max(ea, eb)) return a.bic < b.bic;
-                     return ea < eb;
-                   });
-  // Parsimony between nested effects: a re-fit whose effect reduces to a simpler re-fitted one on
-  // the same attachment (Candidate::reduces_to) ranks after it unless it is better by more than
-  // nested_margin of the nominal validation NRMSE.
-  const double margin = options.nested_margin * d.nominal_validation_nrmse;
-  for (std::size_t i = 0; i < d.refits.size(); ++i) {
-    if (group(d.refits[i]) != 0) break;
-    for (std::size_t j = i + 1; j < d.refits.size(); ++j) {
-      const RefitResult& general = d.refits[i];
-      const RefitResult& simple = d.refits[j];
-      const std::vector<std::string>& r = general.candidate.reduces_to;
-      if (group(simple) == 0 && simple.attachment == general.attachment &&
-          std::find(r.begin(), r.end(), simple.effect) != r.end() &&
-          simple.validation_nrmse_after - general.validation_nrmse_after <= margin) {
-        std::rotate(d.refits.begin() + i, d.refits.begin() + j, d.refits.begin() + j + 1);
-        break;
-      }
-    }
-  }
+  internal::RankRefits(options.tie_tolerance, options.nested_margin * d.nominal_validation_nrmse,
+                       &d.refits);
   return d;
 }
 

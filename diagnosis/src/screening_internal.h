@@ -26,6 +26,12 @@ CandidateScore Score(const estimators::Problem& problem,
 /// AIC and BIC of a fit from its cost (RSS = 2 cost) and free parameters; NaN without residuals.
 void InformationCriteria(const estimators::FitResult& fit, double* aic, double* bic);
 
+/// Orders a round's re-fits as screening.h ("Ranking") says: by group (ok and interior, ok at a
+/// bound, failed), then by validation NRMSE with runs within the relative tie tolerance `tie` of
+/// their best ordered by BIC, then parsimony between nested effects with the absolute NRMSE
+/// margin `margin` (ScreeningOptions::nested_margin x the nominal validation NRMSE).
+void RankRefits(double tie, double margin, std::vector<RefitResult>* refits);
+
 /// A re-fit's result before any solve: the candidate's identity and score, the validation NRMSE
 /// before it, NaN for the figures a fit gives.
 RefitResult UnfittedResult(const CandidateScore& screened, double before);

@@ -75,7 +75,10 @@
 // regime, window or band entry of that channel), then the cause:
 //   "the gap lies in force, at load.qd reversal (...): 41 % of its residual energy in 3 % of the
 //    samples; coulomb (friction.coulomb) closes 87 % of the gap (validation NRMSE 0.094 -> 0.057,
-//    flexible reference 0.052)"   (without a gap: "... removes 40 % of the validation NRMSE")
+//    flexible reference 0.052)"   (without a gap: "... removes 40 % of the validation NRMSE";
+//    when the accepted effects end below the reference's error, where the gap's shares would add
+//    up to more than 100 %, the shares of the nominal error too, and "(validation NRMSE 0.089 ->
+//    0.012; below the flexible reference's 0.081: the whole gap closed)")
 //   "... ; not explained by the candidate library (best: viscous, 0.4 %, not significant)".
 // Effects the data cannot tell apart from an accepted one (AcceptedEffect::alternatives) are named
 // after it: "asymmetric_friction (friction.offset; equally: sensor_offset, payload)".

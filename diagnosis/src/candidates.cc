@@ -212,7 +212,12 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       if (std::string(kind.type) == "friction.stribeck" && !present("friction.coulomb")) {
         c.reduces_to.push_back("coulomb");
       }
-      if (std::string(kind.type) == "friction.power_viscous" && !present("friction.viscous")) {
+      // A power law at k = 1 is viscous friction; the Stribeck block's and LuGre's own viscous
+      // terms (fv, sigma2), re-fitted where the axis has no viscous block, contain it at fs = fc
+      // = 0 and sigma0 = sigma1 = 0 too.
+      if ((std::string(kind.type) == "friction.power_viscous" ||
+           std::string(kind.type) == "friction.stribeck" || lugre) &&
+          !present("friction.viscous")) {
         c.reduces_to.push_back("viscous");
       }
       if (lugre) c.reduces_to.push_back("presliding");

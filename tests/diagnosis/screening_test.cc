@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -170,6 +171,32 @@ TEST(ChiSquareSurvival, MatchesTables) {
   EXPECT_NEAR(ChiSquareSurvival(2.0, 2), std::exp(-1.0), 1e-12);  // exact for dof 2
   EXPECT_EQ(ChiSquareSurvival(0.0, 3), 1.0);
   EXPECT_THROW(ChiSquareSurvival(1.0, 0), std::invalid_argument);
+}
+
+// Candidate::reduces_to: the Stribeck block contains Coulomb friction through its own level and
+// viscous friction through its own fv, each only where the axis lacks that block (else the term is
+// held at 0); a power law contains viscous friction on an axis without it.
+TEST(EnumerateCandidates, NestedFrictionCandidatesNameTheSimplerEffectsTheyContain) {
+  for (const bool with_viscous : {false, true}) {
+    models::Model m("slide");
+    m.AddInput("u", "N", "force", -5.0, 5.0);
+    models::BlockOptions prismatic;
+    prismatic.words["motion"] = "prismatic";
+    m.AddBlock("cart", "mechanics.mass", prismatic, {"u"}, {});
+    if (with_viscous) m.AddBlock("damper", "friction.viscous", prismatic, {"cart.qd"}, {"-u"});
+    m.AddOutput("cart.q");
+    CandidateOptions friction;
+    friction.effects = {"stribeck", "power_law_viscous"};
+    std::map<std::string, std::vector<std::string>> reduces_to;
+    for (const Candidate& c : EnumerateCandidates(est::MakeProblem("slide", m), friction)) {
+      reduces_to[c.effect] = c.reduces_to;
+    }
+    using Names = std::vector<std::string>;
+    const Names stribeck = with_viscous ? Names{"coulomb"} : Names{"coulomb", "viscous"};
+    const Names power_law = with_viscous ? Names{} : Names{"viscous"};
+    EXPECT_EQ(reduces_to["stribeck"], stribeck);
+    EXPECT_EQ(reduces_to["power_law_viscous"], power_law);
+  }
 }
 
 TEST(EnumerateCandidates, FindsTheAxisFromMetadata) {

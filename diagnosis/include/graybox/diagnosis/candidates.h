@@ -330,9 +330,10 @@ struct Candidate {
   };
   std::vector<ShapeGrid> shape_grids;
   /// Simpler effects this one contains at some parameter values (a Stribeck curve with its own
-  /// Coulomb level at fs = fc is Coulomb friction; a power law at k = 1 is viscous friction; a
-  /// rotational payload without gravity is a rotor inertia): the ranking prefers them when they
-  /// fit about as well (screening.h).
+  /// Coulomb level at fs = fc is Coulomb friction, with its own viscous term at fs = fc = 0
+  /// viscous friction; a power law at k = 1 is viscous friction; a rotational payload without
+  /// gravity is a rotor inertia): the ranking prefers them when they fit about as well
+  /// (screening.h).
   std::vector<std::string> reduces_to;
   /// A block option chosen from the data like a shape grid: the score test runs with the
   /// candidate applied by apply_with_option(model, value) for each value = factor / scale

@@ -49,8 +49,7 @@ void AddDiagnosisOptions(CLI::App* cmd, graybox::app::CommandOptions* o) {
          "--refit-seconds", o->refit_seconds,
          "user CPU-time budget of each re-fit in seconds, over all its solves (default 0: 25 x the "
          "nominal solve's user CPU time, at least 10 s); a re-fit whose first stage it stops is "
-         "reported "
-         "as not converged")
+         "reported as not converged")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--refit-in-processes", o->refit_in_processes,
                 "where the problem is solved by Ipopt (not thread-safe), re-fit in one child "

@@ -212,9 +212,9 @@ std::vector<Candidate> EnumerateCandidates(const estimators::Problem& problem,
       if (std::string(kind.type) == "friction.stribeck" && !present("friction.coulomb")) {
         c.reduces_to.push_back("coulomb");
       }
-      // A power law at k = 1 is viscous friction; the Stribeck block's and LuGre's own viscous
-      // terms (fv, sigma2), re-fitted where the axis has no viscous block, contain it at fs = fc
-      // = 0 and sigma0 = sigma1 = 0 too.
+      // A power law at k = 1 is viscous friction; so is the Stribeck block at fc = fs = 0 with its
+      // own fv, and LuGre at sigma0 = 0 (dz/dt = v, the force (sigma1 + sigma2) v), each re-fitted
+      // with that term free where the axis has no viscous block.
       if ((std::string(kind.type) == "friction.power_viscous" ||
            std::string(kind.type) == "friction.stribeck" || lugre) &&
           !present("friction.viscous")) {

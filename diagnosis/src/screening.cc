@@ -246,8 +246,9 @@ void RankRefits(double tie, double margin, std::vector<RefitResult>* ranked) {
   auto group = [](const RefitResult& r) { return !r.ok ? 2 : r.at_bound ? 1 : 0; };
   // By group, then by validation NRMSE (failures keep their order). A comparator that called two
   // NRMSEs within the tie tolerance equal would not be an ordering (a ~ b and b ~ c with a < c),
-  // so ties are settled afterwards: each run of re-fits of one group whose NRMSEs lie within
-  // tie_tolerance of the run's first (best) one is ordered by BIC.
+  // so ties are settled afterwards: each run of re-fits of one group whose NRMSEs exceed the
+  // run's first (best) one by at most `tie` of their own is ordered by BIC. Ok re-fits have finite
+  // NRMSEs (a non-finite validation makes a re-fit fail).
   std::stable_sort(refits.begin(), refits.end(), [&](const RefitResult& a, const RefitResult& b) {
     if (group(a) != group(b)) return group(a) < group(b);
     if (group(a) == 2) return false;
@@ -266,12 +267,12 @@ void RankRefits(double tie, double margin, std::vector<RefitResult>* ranked) {
                      [](const RefitResult& a, const RefitResult& b) { return a.bic < b.bic; });
     i = j;
   }
-  // Parsimony between nested effects: a re-fit whose effect reduces to a simpler re-fitted one on
-  // the same attachment (Candidate::reduces_to) moves to just after it unless it is better by more
-  // than nested_margin of the nominal validation NRMSE. The general one moves down rather than the
-  // simple one up, so that the re-fits ranked between them, which beat the simple one, stay ahead
-  // of it. The position is checked again after a move (its new occupant may be a general one too);
-  // reduces_to has no cycles, and the moves are bounded besides.
+  // Parsimony between nested effects: where a re-fit's effect reduces to a simpler re-fitted one on
+  // the same attachment (Candidate::reduces_to) that is worse by at most `margin`, the simpler one
+  // takes its place and the general one follows it: the nested family ranks by its best member,
+  // and is named by its simplest adequate one. The position is checked again after a move (the
+  // simpler one may contain a simpler one still); a re-fit is never compared with itself, and the
+  // moves are bounded besides.
   std::size_t moves = 0;
   for (std::size_t i = 0; i < n && group(refits[i]) == 0;) {
     bool moved = false;
@@ -283,7 +284,7 @@ void RankRefits(double tie, double margin, std::vector<RefitResult>* ranked) {
           std::find(r.begin(), r.end(), simple.effect) != r.end() &&
           simple.validation_nrmse_after - general.validation_nrmse_after <= margin) {
         std::rotate(refits.begin() + static_cast<std::ptrdiff_t>(i),
-                    refits.begin() + static_cast<std::ptrdiff_t>(i + 1),
+                    refits.begin() + static_cast<std::ptrdiff_t>(j),
                     refits.begin() + static_cast<std::ptrdiff_t>(j + 1));
         moved = true;
         break;

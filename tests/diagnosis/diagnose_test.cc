@@ -100,6 +100,7 @@ TEST(Diagnose, ForwardSelectionFindsBothWithheldFrictions) {
   // The verdict gives the shares of the gap while the final error is at or above the reference's,
   // else the shares of the nominal error and the whole gap closed.
   ASSERT_TRUE(d.reference.ok) << d.reference.failure;
+  ASSERT_TRUE(std::isfinite(d.gap)) << d.reference.validation_nrmse;
   if (d.final_validation_nrmse >= d.reference.validation_nrmse) {
     EXPECT_NE(d.verdict.find("% of the gap"), std::string::npos) << d.verdict;
   } else {

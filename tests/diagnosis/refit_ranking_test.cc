@@ -1,7 +1,7 @@
 // The ranking of a round's re-fits (screening.h, "Ranking"; internal::RankRefits of the private
 // diagnosis/src/screening_internal.h, on this test's include path): groups, validation NRMSE, ties
-// settled by BIC in runs measured from their best, and parsimony between nested effects that
-// moves the general effect down rather than the simple one up.
+// settled by BIC in runs measured from their best, and parsimony between nested effects: the
+// simpler one takes the general one's place.
 #include <string>
 #include <vector>
 
@@ -54,17 +54,33 @@ TEST(RankRefits, TiesAreRunsWithinTheToleranceOfTheirBest) {
             (std::vector<std::string>{"b", "a", "c"}));
 }
 
-// The DC motor's second round: the two-level asymmetric friction (which contains the constant
-// offset) is better than the offset by less than the margin, so it ranks after it; the Dahl re-fit
-// and Coulomb friction, which beat the offset (lower NRMSE, lower BIC in the tie), stay ahead.
-TEST(RankRefits, AGeneralEffectMovesDownBehindItsSimplerOneAndNoOtherReFitIsPassed) {
-  const std::vector<std::string> order =
-      Order({Refit("offset", 0.2741, -62917.3), Refit("coulomb", 0.2741, -62920.6),
-             Refit("dahl", 0.2739, -62932.5),
-             Refit("asymmetric", 0.2727, -63296.5, true, false, {"offset"}),
-             Refit("stribeck", 0.2103, -74425.7, true, true, {"coulomb"})});
-  EXPECT_EQ(order,
-            (std::vector<std::string>{"dahl", "coulomb", "offset", "asymmetric", "stribeck"}));
+// The DC motor's second round at 2430167: the two-level asymmetric friction, which contains the
+// constant offset (the same effect name, another variant), is best, and better than the offset by
+// less than the margin: the offset takes its place and it follows; the Dahl and Coulomb re-fits,
+// tied with the offset and ahead of it by BIC, stay behind the family.
+TEST(RankRefits, TheSimplerEffectTakesTheGeneralOnesPlace) {
+  std::vector<RefitResult> refits = {
+      Refit("asymmetric_friction", 0.2741, -62917.3), Refit("coulomb", 0.2741, -62920.6),
+      Refit("presliding", 0.2739, -62932.5),
+      Refit("asymmetric_friction", 0.2727, -63296.5, true, false, {"asymmetric_friction"}),
+      Refit("stribeck", 0.2103, -74425.7, true, true, {"coulomb"})};
+  refits[0].detail = "friction.offset";
+  refits[3].detail = "friction.asymmetric";
+  RankRefits(kTie, kMargin, &refits);
+  std::vector<std::string> order;
+  for (const RefitResult& r : refits) order.push_back(r.effect + " " + r.detail);
+  EXPECT_EQ(order, (std::vector<std::string>{"asymmetric_friction friction.offset",
+                                             "asymmetric_friction friction.asymmetric",
+                                             "presliding ", "coulomb ", "stribeck "}));
+}
+
+// EMPS without its asymmetry, round 2: the family's best (0.03604) beats an output offset
+// (0.03647) by more than a tie, its simpler member (0.03658) does not; the family ranks by its
+// best.
+TEST(RankRefits, ANestedFamilyRanksByItsBestMember) {
+  EXPECT_EQ(Order({Refit("sensor_offset", 0.03647, -323836.1), Refit("offset", 0.03658, -323318.7),
+                   Refit("asymmetric", 0.03604, -325323.4, true, false, {"offset"})}),
+            (std::vector<std::string>{"offset", "asymmetric", "sensor_offset"}));
 }
 
 // Better than its simpler effect by more than the margin: the general effect keeps its place.
@@ -74,13 +90,20 @@ TEST(RankRefits, AGeneralEffectBetterByMoreThanTheMarginStaysFirst) {
             (std::vector<std::string>{"stribeck", "coulomb"}));
 }
 
-// Two nested steps: a LuGre re-fit contains presliding, which contains nothing here; a Stribeck
-// curve contains Coulomb friction. After the first move the position is checked again.
-TEST(RankRefits, EveryGeneralEffectAheadOfItsSimplerOneMovesDown) {
+// Two nested steps: a LuGre re-fit contains presliding; a Stribeck curve contains Coulomb
+// friction. Each simpler one takes its general one's place.
+TEST(RankRefits, EveryGeneralEffectWithinTheMarginGivesWayToItsSimplerOne) {
   EXPECT_EQ(Order({Refit("lugre", 0.100, -10.0, true, false, {"presliding"}),
                    Refit("stribeck", 0.101, -20.0, true, false, {"coulomb"}),
                    Refit("presliding", 0.102, -5.0), Refit("coulomb", 0.103, -6.0)}),
             (std::vector<std::string>{"presliding", "lugre", "coulomb", "stribeck"}));
+}
+
+// A simpler one that contains a simpler one still: the position is checked again after a move.
+TEST(RankRefits, ASimplerEffectThatMovedUpIsCheckedAgain) {
+  EXPECT_EQ(Order({Refit("a", 0.100, -10.0, true, false, {"b"}),
+                   Refit("b", 0.101, -20.0, true, false, {"c"}), Refit("c", 0.102, -5.0)}),
+            (std::vector<std::string>{"c", "b", "a"}));
 }
 
 // A simpler effect on another attachment does not count.

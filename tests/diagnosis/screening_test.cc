@@ -150,7 +150,7 @@ bool IsCoulombLike(const std::string& effect) {
 
 // 25 times the nominal solve's user CPU time on its thread, at least 10 s; the solve's wall time,
 // which a loaded machine lengthens, plays no part.
-TEST(AutomaticRefitBudget, TwentyTimesTheNominalSolvesThreadCpuTimeAtLeastTenSeconds) {
+TEST(AutomaticRefitBudget, TwentyFiveTimesTheNominalSolvesThreadCpuTimeAtLeastTenSeconds) {
   est::FitResult nominal;
   nominal.seconds = {{"solve", 100.0}};
   nominal.solve_thread_user_seconds = 2.0;
@@ -175,7 +175,8 @@ TEST(ChiSquareSurvival, MatchesTables) {
 
 // Candidate::reduces_to: the Stribeck block contains Coulomb friction through its own level and
 // viscous friction through its own fv, each only where the axis lacks that block (else the term is
-// held at 0); a power law contains viscous friction on an axis without it.
+// held at 0); a power law and LuGre (its sigma2) contain viscous friction on an axis without it,
+// LuGre presliding too.
 TEST(EnumerateCandidates, NestedFrictionCandidatesNameTheSimplerEffectsTheyContain) {
   for (const bool with_viscous : {false, true}) {
     models::Model m("slide");
@@ -186,16 +187,24 @@ TEST(EnumerateCandidates, NestedFrictionCandidatesNameTheSimplerEffectsTheyConta
     if (with_viscous) m.AddBlock("damper", "friction.viscous", prismatic, {"cart.qd"}, {"-u"});
     m.AddOutput("cart.q");
     CandidateOptions friction;
-    friction.effects = {"stribeck", "power_law_viscous"};
-    std::map<std::string, std::vector<std::string>> reduces_to;
+    friction.effects = {"stribeck", "power_law_viscous", "presliding"};
+    friction.lugre_presliding = true;
+    std::map<std::string, std::vector<std::string>> reduces_to;  // by effect and detail
     for (const Candidate& c : EnumerateCandidates(est::MakeProblem("slide", m), friction)) {
-      reduces_to[c.effect] = c.reduces_to;
+      reduces_to[c.effect + " " + c.detail] = c.reduces_to;
     }
     using Names = std::vector<std::string>;
     const Names stribeck = with_viscous ? Names{"coulomb"} : Names{"coulomb", "viscous"};
     const Names power_law = with_viscous ? Names{} : Names{"viscous"};
-    EXPECT_EQ(reduces_to["stribeck"], stribeck);
-    EXPECT_EQ(reduces_to["power_law_viscous"], power_law);
+    const Names lugre = with_viscous ? Names{"presliding"} : Names{"viscous", "presliding"};
+    ASSERT_EQ(reduces_to.count("stribeck friction.stribeck"), 1u);
+    ASSERT_EQ(reduces_to.count("power_law_viscous friction.power_viscous"), 1u);
+    ASSERT_EQ(reduces_to.count("presliding lugre"), 1u);
+    ASSERT_EQ(reduces_to.count("presliding dahl"), 1u);
+    EXPECT_EQ(reduces_to["stribeck friction.stribeck"], stribeck);
+    EXPECT_EQ(reduces_to["power_law_viscous friction.power_viscous"], power_law);
+    EXPECT_EQ(reduces_to["presliding lugre"], lugre);
+    EXPECT_EQ(reduces_to["presliding dahl"], Names{});
   }
 }
 

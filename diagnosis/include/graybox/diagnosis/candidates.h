@@ -331,7 +331,8 @@ struct Candidate {
   std::vector<ShapeGrid> shape_grids;
   /// Simpler effects this one contains at some parameter values (a Stribeck curve with its own
   /// Coulomb level at fs = fc is Coulomb friction, with its own viscous term at fs = fc = 0
-  /// viscous friction; a power law at k = 1 is viscous friction; a rotational payload without
+  /// viscous friction; a power law at k = 1 and LuGre at sigma0 = 0 are viscous friction; the
+  /// two-level asymmetric friction contains the constant offset; a rotational payload without
   /// gravity is a rotor inertia): the ranking prefers them when they fit about as well
   /// (screening.h).
   std::vector<std::string> reduces_to;

@@ -48,7 +48,9 @@
 // What the reference cannot represent is not in the gap either: dynamics (a delay, a presliding
 // state, elasticity), time-varying effects (a drifting friction), or effects on the sensor. For
 // those the reference may be no better than the nominal model; Diagnose then falls back to the
-// nominal error (gap_closed is NaN, the share of the nominal error is reported instead).
+// nominal error (gap_closed is NaN, the share of the nominal error is reported instead). Where
+// the accepted effects end below the reference's error, gap_closed passes 1 over them and the
+// verdict gives the shares of the nominal error too ("the whole gap closed").
 //
 // Failure behaviour. Invalid options throw std::invalid_argument (ReferenceOptions::Validate). A
 // model without a mechanical axis, a failed solve or a diverged validation simulation gives

@@ -174,16 +174,16 @@
 // free model parameters,
 //   AIC = N ln(RSS / N) + 2 k,      BIC = N ln(RSS / N) + k ln N.
 // Ranking: ok and interior first, then ok at a bound, then failures; within a group by validation
-// NRMSE, each run of re-fits whose NRMSEs lie within ScreeningOptions::tie_tolerance (relative) of
-// the run's best ordered by BIC. Then parsimony: an effect that contains a simpler one
-// (Candidate::reduces_to: a Stribeck curve with its own Coulomb level contains Coulomb friction, a
-// power law contains viscous friction) moves to just after that simpler effect's re-fit on the
-// same attachment unless its validation NRMSE is lower by more than
-// ScreeningOptions::nested_margin x the nominal validation NRMSE: a hard Coulomb sign in the data
-// is fitted a little better by a Stribeck peak at a tiny velocity, which does not make it Stribeck
-// friction. The re-fits ranked between the two stay ahead of the simpler one (until 5771390 the
-// simpler one moved up instead, ahead of them: on the DC motor a friction offset then outranked a
-// Dahl re-fit that had the lower NRMSE and BIC).
+// NRMSE, each run of re-fits whose NRMSEs exceed the run's best by at most
+// ScreeningOptions::tie_tolerance (relative) ordered by BIC (a run is measured from its best, so
+// that the order is one: pairwise ties are not transitive). Then parsimony: where an effect that
+// contains a simpler one (Candidate::reduces_to: a Stribeck curve with its own Coulomb level
+// contains Coulomb friction, a power law viscous friction, the two-level asymmetric friction the
+// constant offset) ranks ahead of that simpler effect's re-fit on the same attachment and its
+// validation NRMSE is lower by at most ScreeningOptions::nested_margin x the nominal validation
+// NRMSE, the simpler re-fit takes its place and it follows: the family ranks by its best member
+// and is named by its simplest adequate one (a hard Coulomb sign in the data is fitted a little
+// better by a Stribeck peak at a tiny velocity, which does not make it Stribeck friction).
 //
 // Failure behaviour. Invalid options throw std::invalid_argument (ScreeningOptions::Validate). A
 // candidate whose augmented problem cannot be built or evaluated gets a NaN score and its reason
@@ -208,7 +208,8 @@ struct ScreeningOptions {
   /// The periodogram of the residuals against each axis' position whose peaks are the ripple
   /// candidates' periods (period_scan.h), unless candidates.ripple_periods gives them.
   PeriodScanOptions period_scan;
-  /// Relative difference of two validation NRMSEs below which BIC decides the order (>= 0).
+  /// Relative excess of a validation NRMSE over the best of its run up to which BIC decides the
+  /// order within the run (>= 0; file comment, "Ranking").
   double tie_tolerance = 1e-3;
   /// Parsimony between nested effects (Candidate::reduces_to): the more general re-fit ranks
   /// first only when its validation NRMSE is lower than the simpler one's by more than

@@ -7,7 +7,7 @@ set -euo pipefail
 GRAYBOX_PACKAGES=(
   g++ make cmake pkg-config git clang-format
   libeigen3-dev coinor-libipopt-dev libceres-dev libsuitesparse-dev libsundials-dev
-  libmatio-dev zlib1g-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
+  libmatio-dev libhdf5-dev zlib1g-dev libgtest-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   # Tests only: headless rendering of report.html (tests/diagnosis/report_html_test.cc).
   chromium
   # Tests only: the libFuzzer harnesses and the sanitizer build (tools/fuzz.sh, tools/sanitize.sh).

@@ -29,7 +29,8 @@ void InformationCriteria(const estimators::FitResult& fit, double* aic, double* 
 /// Orders a round's re-fits as screening.h ("Ranking") says: by group (ok and interior, ok at a
 /// bound, failed), then by validation NRMSE with runs within the relative tie tolerance `tie` of
 /// their best ordered by BIC, then parsimony between nested effects with the absolute NRMSE
-/// margin `margin` (ScreeningOptions::nested_margin x the nominal validation NRMSE).
+/// margin `margin` (ScreeningOptions::nested_margin x the nominal validation NRMSE). Ok re-fits
+/// must have finite validation NRMSEs and BICs (a re-fit whose validation is not finite fails).
 void RankRefits(double tie, double margin, std::vector<RefitResult>* refits);
 
 /// A re-fit's result before any solve: the candidate's identity and score, the validation NRMSE

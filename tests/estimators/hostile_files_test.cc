@@ -1,6 +1,7 @@
 // Hostile data files are refused before they exhaust memory (issue 12): a device given as a CSV
-// file (/dev/zero never ends), a CSV line or field count beyond the caps, and a MAT file whose
-// header declares far more data than the file could hold at any compression.
+// file (/dev/zero never ends), a CSV line or field count beyond the caps, and a MAT file (v4, v5
+// or the HDF5-based v7.3) whose header declares far more data than the file could hold at any
+// compression.
 #include <unistd.h>
 
 #include <cstdint>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include "graybox/estimators/data/csv_file.h"
 #include "graybox/estimators/data/mat_file.h"
@@ -282,6 +284,71 @@ TEST(HostileFiles, AStructWithoutFieldNamesIsRefused) {
 
 // The header check maps regular files only: a device given as a MAT file is not read to its end
 // (/dev/zero never ends) but refused by matio's own header test.
+// A v7.3 (HDF5) MAT file whose dataset declares 1e12 doubles (8 TB) in a chunked, deflated layout
+// with no chunk written: matio would allocate the declared size before reading; the check
+// refuses it, naming the dataset. A real v7.3 file of zeros compressed about 1000:1 still reads.
+TEST(HostileFiles, AV73DatasetThatDeclaresMoreThanItsStorageIsCorrupt) {
+  const std::string path = TempFile("v73_declares_8tb.mat");
+  {
+    const hid_t fcpl = H5Pcreate(H5P_FILE_CREATE);
+    H5Pset_userblock(fcpl, 512);  // MATLAB's 128-byte header lives in a 512-byte user block
+    const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    const hsize_t dims[2] = {1000000, 1000000};
+    const hsize_t chunk[2] = {1, 1000};
+    const hid_t space = H5Screate_simple(2, dims, nullptr);
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 2, chunk);
+    H5Pset_deflate(dcpl, 6);
+    const hid_t dataset =
+        H5Dcreate2(file, "x", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    ASSERT_GE(dataset, 0);
+    const hid_t text = H5Tcopy(H5T_C_S1);
+    H5Tset_size(text, 6);
+    const hid_t scalar = H5Screate(H5S_SCALAR);
+    const hid_t attribute =
+        H5Acreate2(dataset, "MATLAB_class", text, scalar, H5P_DEFAULT, H5P_DEFAULT);
+    H5Awrite(attribute, text, "double");
+    H5Aclose(attribute);
+    H5Sclose(scalar);
+    H5Tclose(text);
+    H5Dclose(dataset);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    H5Fclose(file);
+    H5Pclose(fcpl);
+    std::vector<char> header(128, ' ');
+    const char title[] = "MATLAB 7.3 MAT-file, hostile v7.3 test";
+    std::memcpy(header.data(), title, sizeof(title) - 1);
+    std::memset(header.data() + 116, 0, 8);
+    header[124] = 0x00;  // version 0x0200, little-endian with "IM"
+    header[125] = 0x02;
+    header[126] = 'I';
+    header[127] = 'M';
+    std::fstream out(path, std::ios::binary | std::ios::in | std::ios::out);
+    out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  }
+  const std::string e = ErrorOf([&] { MatFile(path).ReadMatrix("x"); });
+  std::filesystem::remove(path);
+  EXPECT_NE(e.find("truncated or corrupt MAT file: dataset '/x' declares 1000000000000 elements "
+                   "of 8 bytes (8000000000000 bytes) in 0 bytes of storage"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find(path), std::string::npos) << e;
+
+  const std::string zeros = TempFile("v73_zeros.mat");
+  {
+    MatWriter w(zeros, MatVersion::kV73, /*compress=*/true);
+    w.WriteMatrix("z", Eigen::MatrixXd::Zero(1000, 1000));
+  }
+  Eigen::MatrixXd z;
+  EXPECT_EQ(ErrorOf([&] { z = MatFile(zeros).ReadMatrix("z"); }), "(no error)");
+  std::filesystem::remove(zeros);
+  EXPECT_EQ(z.rows(), 1000);
+  EXPECT_EQ(z.cols(), 1000);
+  EXPECT_EQ(z.cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(HostileFiles, ADeviceIsNotReadAsAMatFile) {
   const std::string e = ErrorOf([] { MatFile("/dev/zero"); });
   EXPECT_NE(e.find("expected a MATLAB .mat file (v4, v5, v7 or v7.3)"), std::string::npos) << e;

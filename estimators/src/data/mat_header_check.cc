@@ -508,7 +508,7 @@ std::string MatHeaderDefect(const std::string& path) {
     const bool im = bytes[126] == 'I' && bytes[127] == 'M';
     const bool mi = bytes[126] == 'M' && bytes[127] == 'I';
     const unsigned version = im ? (bytes[125] << 8 | bytes[124]) : (bytes[124] << 8 | bytes[125]);
-    if ((im || mi) && version == 0x0200) return "";  // v7.3: HDF5
+    if ((im || mi) && version == 0x0200) return Mat73Defect(path);  // v7.3: HDF5
     if ((im || mi) && version == 0x0100) {
       V5Walker walker(bytes, mi, 0, false);
       return walker.Elements(128, bytes.size());

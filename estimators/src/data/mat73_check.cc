@@ -17,11 +17,6 @@
 namespace graybox::estimators::internal {
 namespace {
 
-// As for the v5 walk (mat_header_check.cc): zlib's best ratio is about 1032:1, and a small
-// dataset may carry a chunk's overhead.
-constexpr double kMaxCompression = 1100.0;
-constexpr double kSmallDatasetBytes = 4096.0;
-
 struct Visit {
   double file_bytes = 0.0;
   std::string defect;
@@ -41,7 +36,7 @@ herr_t CheckObject(hid_t root, const char* name, const H5O_info_t* info, void* d
     const double declared = static_cast<double>(points) * static_cast<double>(element);
     const double storage = static_cast<double>(H5Dget_storage_size(dataset));
     const double held = storage < visit->file_bytes ? storage : visit->file_bytes;
-    if (points < 0 || declared > kMaxCompression * held + kSmallDatasetBytes) {
+    if (points < 0 || declared > kMaxCompression * held + kMaxCompressionSlackBytes) {
       visit->defect = "dataset '/" + std::string(name) + "' declares " +
                       std::to_string(static_cast<long long>(points)) + " elements of " +
                       std::to_string(element) + " bytes (" +

@@ -269,7 +269,6 @@ struct MatFile::Impl {
   // compression (about 1032:1) is a corrupt header: refused before matio allocates it (a 72 kB
   // file claiming 2e8 x 1 doubles took 4.7 GB).
   void CheckDeclaredSize(const std::string& path, const std::string& name) const {
-    constexpr double kMaxCompression = 1100.0;
     std::error_code ec;
     const double file_bytes = static_cast<double>(std::filesystem::file_size(path, ec));
     if (ec) return;
@@ -278,7 +277,7 @@ struct MatFile::Impl {
       const auto it = declared_bytes.find(name);
       if (it == declared_bytes.end()) continue;
       const double declared = it->second;
-      if (declared > kMaxCompression * file_bytes + 4096.0) {
+      if (declared > internal::kMaxCompression * file_bytes + internal::kMaxCompressionSlackBytes) {
         char buf[200];
         std::snprintf(buf, sizeof buf, "%.3g bytes in a file of %.3g bytes", declared, file_bytes);
         Fail(path, "truncated or corrupt MAT file: variable '" + name + "' declares " +

@@ -23,8 +23,6 @@ constexpr std::uint32_t kMiInt8 = 1, kMiUInt8 = 2, kMiInt16 = 3, kMiUInt16 = 4, 
                         kMiUtf32 = 18;
 constexpr std::uint32_t kCellClass = 1, kStructClass = 2, kObjectClass = 3, kSparseClass = 5,
                         kCharClass = 4, kUInt64Class = 15, kFunctionClass = 16, kOpaqueClass = 17;
-// zlib's best compression is about 1032:1; an inflated element beyond this ratio is corrupt.
-constexpr double kMaxCompression = 1100.0;
 // The smallest top-level variable: array flags (16 bytes), two dimensions (16), a small name (8).
 constexpr std::size_t kMinVariableBytes = 40;
 // Nesting of cells and structs matio recurses through.
@@ -367,7 +365,7 @@ class V5Walker {
   // element inside.
   std::string Compressed(std::size_t pos, std::size_t end, std::size_t element) {
     const std::size_t available = std::min(end, b_.size()) - std::min(pos, b_.size());
-    const double cap = kMaxCompression * static_cast<double>(available) + 4096.0;
+    const double cap = kMaxCompression * static_cast<double>(available) + kMaxCompressionSlackBytes;
     std::vector<unsigned char> out;
     z_stream z{};
     if (inflateInit(&z) != Z_OK) return "";

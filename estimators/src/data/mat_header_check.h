@@ -17,6 +17,12 @@
 
 namespace graybox::estimators::internal {
 
+/// zlib's best compression ratio is about 1032:1: an element, dataset or variable that declares
+/// more than this many times the bytes that hold it (plus kMaxCompressionSlackBytes, a small
+/// object's chunk overhead) is corrupt.
+inline constexpr double kMaxCompression = 1100.0;
+inline constexpr double kMaxCompressionSlackBytes = 4096.0;
+
 /// "" when the headers of the file at `path` are consistent (or it is not a MAT file at all, which
 /// Mat_Open reports); otherwise the first defect, with its byte offset in the file ("element at
 /// byte 248 (miMATRIX, 176 bytes): its dimensions sub-element declares 3309313544 bytes, 152

@@ -359,13 +359,18 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
                    (is_payload ? ", position " + axis.position : "");
     c.instance = FreshInstance(problem.model, var.effect, taken);
     if (is_payload && !prismatic && !body.mass_free) c.reduces_to.push_back("rotor_inertia");
+    // The elastic split keeps the axis' total inertia M_tot: the body (the load side) takes
+    // M = M_tot / (1 + r), the motor side the block's nominal J = r M (r the coupling's
+    // kDefaultCouplingInertiaRatio), so J + M = M_tot.
+    const double load_share = 1.0 / (1.0 + models::kDefaultCouplingInertiaRatio);
     if (is_elastic) {
       // No score test; the stiffness profiled over modes at 1, 2, 4 and 8 % of the sample rate
-      // (K = (2 pi f)^2 J_eff, J_eff = J M / (J + M) = M / 5 at the nominal J = M / 4).
+      // (K = (2 pi f)^2 J_eff, J_eff = J M / (J + M) = r M_tot / (1 + r)^2 at the split).
       c.structural = true;
+      const double r = models::kDefaultCouplingInertiaRatio;
       std::vector<double> factors;
       for (const double f : {0.01, 0.02, 0.04, 0.08}) {
-        factors.push_back(std::pow(2.0 * M_PI * f, 2) * 0.2 * mass_now);
+        factors.push_back(std::pow(2.0 * M_PI * f, 2) * r / ((1.0 + r) * (1.0 + r)) * mass_now);
       }
       c.shape_grids.push_back(
           {c.instance + ".K", Candidate::ShapeGrid::Scale::kSampleRateSquared, "", factors});
@@ -385,7 +390,7 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
         is_payload ? std::vector<std::string>{axis.position} : std::vector<std::string>{};
     const bool motor_feedback = is_elastic && var.detail.find("feedback") != std::string::npos;
     if (motor_feedback) c.attachment += ", controller " + Join(controllers) + " on q + e";
-    if (!motor_feedback) {
+    if (!is_elastic) {
       c.augmentation = {models::Augmentation::Kind::kForReaders,
                         c.instance,
                         var.type,
@@ -397,26 +402,55 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
                         extra};
       c.options_from_parameters = {{"axis_inertia", body.mass}};
     }
-    const std::string position = axis.position;
+    const std::string position = axis.position, velocity = axis.velocity;
     const std::string unit = prismatic ? "m" : "rad";
-    c.apply = [options, instance, force, reader, mass, type, extra, held, motor_feedback, position,
-               controllers, unit](models::Model* m) {
+    // The controllers that also read the axis velocity read the motor side's qd + ed.
+    std::vector<std::string> velocity_readers;
+    for (const auto& b : problem.model.Blocks()) {
+      if (std::find(controllers.begin(), controllers.end(), b.instance) != controllers.end() &&
+          std::find(b.inputs.begin(), b.inputs.end(), velocity) != b.inputs.end()) {
+        velocity_readers.push_back(b.instance);
+      }
+    }
+    c.apply = [options, instance, force, reader, mass, type, extra, held, is_elastic, load_share,
+               motor_feedback, position, velocity, controllers, velocity_readers,
+               unit](models::Model* m) {
       // The body's inertia as the model has it now (the nominal fit's value in screening).
+      double body_inertia = m->Parameter(mass).value;
+      if (is_elastic) {
+        // The split of the total (above), the body's inertia held there: the coupling's
+        // deflection equation uses it as the option M, which a re-fit that moved the body's
+        // parameter would leave stale (loads.h); J, free, carries a change of the total.
+        body_inertia *= load_share;
+        m->SetParameter(mass, body_inertia);
+        m->Fix(mass);
+      }
       const auto b = std::shared_ptr<const models::Block>(
-          models::BlockRegistry::Global().Create(type, options(m->Parameter(mass).value)));
+          models::BlockRegistry::Global().Create(type, options(body_inertia)));
       m->InsertForReaders(force, instance, b, {reader}, extra);
       for (const auto& q : held) m->Fix(q);
       if (motor_feedback) {
-        // The controllers read the motor-side position q + e: a unit gain in series on q for
-        // them, and the deflection e added to its output.
-        BlockOptions g;
-        g.words["input_unit"] = unit;
-        g.words["output_unit"] = unit;
-        m->InsertForReaders(position, instance + "_motor_q", models::kGainBlock, g, controllers);
-        m->Augment(instance + "_deflection", models::kGainBlock, g, {instance + ".e"},
-                   {instance + "_motor_q.out"});
-        m->Fix(instance + "_motor_q.k");
-        m->Fix(instance + "_deflection.k");
+        // The controllers read the motor side: position q + e (a unit gain in series on q for
+        // them, and the deflection e added to its output) and, where they read the velocity,
+        // qd + ed the same way (a loop closed on the motor's position but the load's velocity
+        // is a non-collocated loop, unstable at a drive's gains).
+        auto motor_side = [m, &instance](const std::string& signal, const std::string& suffix,
+                                         const std::string& state, const std::string& signal_unit,
+                                         const std::vector<std::string>& readers) {
+          BlockOptions g;
+          g.words["input_unit"] = signal_unit;
+          g.words["output_unit"] = signal_unit;
+          const std::string gain = instance + "_motor_" + suffix;
+          m->InsertForReaders(signal, gain, models::kGainBlock, g, readers);
+          m->Augment(instance + "_" + state, models::kGainBlock, g, {instance + "." + state},
+                     {gain + ".out"});
+          m->Fix(gain + ".k");
+          m->Fix(instance + "_" + state + ".k");
+        };
+        motor_side(position, "q", "e", unit, controllers);
+        if (!velocity_readers.empty()) {
+          motor_side(velocity, "qd", "ed", unit + "/s", velocity_readers);
+        }
       }
     };
     out->push_back(std::move(c));

@@ -224,6 +224,9 @@ void RefitRun::StageA() {
         if (!p.free || std::find(c.refit.begin(), c.refit.end(), p.name) != c.refit.end()) {
           continue;
         }
+        // A nominal parameter the candidate holds (the elastic split's body inertia) keeps the
+        // value apply() gave it.
+        if (!aug.built.parameters[aug.built.ParameterIndex(p.name)].free) continue;
         nominal_free.push_back(i);
         corner = corner || nominal.Parameter(p.name).at_bound || a.Parameter(p.name).at_bound;
         differs = differs || p.value != nominal.values[i];

@@ -404,7 +404,10 @@ Diagnosis ScreenAndRefit(const est::Problem& problem, const std::vector<est::Spl
     if (!runs[i]) continue;
     const RefitResult& r = runs[i]->result();
     const double gain = r.validation_nrmse_before - r.validation_nrmse_after;
-    if (r.ok && gain >= options.contender_share * best_gain) {
+    // A structural candidate's stage A holds its own parameters at guesses, not at screened
+    // values (no score test): only its stage B fits them, so it is always a contender.
+    const bool structural = to_refit[i]->candidate.structural;
+    if (r.ok && (structural || gain >= options.contender_share * best_gain)) {
       contenders.push_back(i);
     } else {
       char reason[160];

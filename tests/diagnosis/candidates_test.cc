@@ -19,6 +19,7 @@
 #include "graybox/estimators/fit/fit.h"
 #include "graybox/estimators/problem/problem_file.h"
 #include "graybox/models/augmentation.h"
+#include "graybox/models/loads.h"
 #include "graybox/models/model.h"
 
 namespace graybox::diagnosis {
@@ -482,8 +483,9 @@ TEST(Candidates, BacklashOnJointsWithoutOne) {
 // neutral (the files are parsed only; no data are read).
 // The declarative form (Candidate::augmentation, with AugmentationFor's options) added by
 // ApplyAugmentation gives the same model as apply(): the same states, parameters and, away from
-// the neutral values, the same dynamics and outputs. Every candidate but the elasticity variant
-// that moves the controller's feedback and those that change a block of the model has one.
+// the neutral values, the same dynamics and outputs. Every candidate but elasticity (it splits the
+// body's inertia, and one variant moves the controller's feedback) and those that change a block
+// of the model has one.
 void ExpectDeclarativeFormMatches(const models::Model& nominal,
                                   const std::vector<Candidate>& candidates) {
   std::mt19937 rng(Seed());
@@ -494,9 +496,9 @@ void ExpectDeclarativeFormMatches(const models::Model& nominal,
       bool changes_a_block = false;
       for (const auto& b : nominal.Blocks())
         changes_a_block = changes_a_block || b.instance == c.instance;
+      // Elasticity splits the body's inertia (and may move the controller's feedback).
       if (!changes_a_block) {
         EXPECT_EQ(c.effect, "elasticity") << c.Name();
-        EXPECT_NE(c.detail.find("feedback"), std::string::npos) << c.Name();
       }
       continue;
     }
@@ -860,15 +862,27 @@ TEST(Candidates, ElasticityIsAStructuralTwoMassVariant) {
   EXPECT_EQ(loop[1].detail, "two-mass, force and feedback on the motor side");
   models::Model l = ClosedLoop();
   loop[1].apply(&l);
-  bool reads_motor_side = false;
+  // The loop closes on the motor side: position and velocity (a motor-side position with the
+  // load's velocity is a non-collocated loop).
+  bool reads_motor_position = false, reads_motor_velocity = false;
   for (const auto& b : l.Blocks()) {
     if (b.type.rfind("control.", 0) == 0) {
-      for (const auto& in : b.inputs)
-        reads_motor_side = reads_motor_side || in == loop[1].instance + "_motor_q.out";
+      for (const auto& in : b.inputs) {
+        reads_motor_position = reads_motor_position || in == loop[1].instance + "_motor_q.out";
+        reads_motor_velocity = reads_motor_velocity || in == loop[1].instance + "_motor_qd.out";
+      }
     }
   }
-  EXPECT_TRUE(reads_motor_side);
+  EXPECT_TRUE(reads_motor_position);
+  EXPECT_TRUE(reads_motor_velocity);
   EXPECT_NO_THROW(l.Build());
+  // The split keeps the total inertia: the body holds M_tot / (1 + r), the motor side J = r M.
+  constexpr double kRoundoff = 1e-12;
+  const double total = ClosedLoop().Parameter("load.mass").value;
+  const double load_side = l.Parameter("load.mass").value;
+  EXPECT_NEAR(load_side + l.Parameter(loop[1].instance + ".J").value, total, kRoundoff * total);
+  EXPECT_NEAR(load_side, total / (1.0 + models::kDefaultCouplingInertiaRatio), kRoundoff * total);
+  EXPECT_FALSE(l.Parameter("load.mass").free);
 }
 
 }  // namespace

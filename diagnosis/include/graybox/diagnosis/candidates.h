@@ -233,8 +233,9 @@
 //                  sensor see the shift; the output-only offset is seen against the reference.
 //
 // Default set. An empty CandidateOptions::effects proposes DefaultEffects(): every effect but
-// elasticity (a structural re-fit of a stiff two-mass model, minutes per round on 25,000 samples;
-// name it in `effects` when a resonance is suspected), and of those every one whose
+// elasticity (structural re-fits of a stiff two-mass model in every round, no score test to skip
+// them, each run to its budget: two per axis on a closed loop; name it in `effects` when a
+// resonance is suspected), and of those every one whose
 // signals the model has. That is many score tests (on a single axis with two outputs about 20:
 // 4 ripple candidates per axis, 2 to 4 sensor candidates per channel), which costs time and raises
 // the chance that some candidate looks significant by accident; the diagnosis (diagnose.h)
@@ -246,16 +247,25 @@
 //                  between the net force F and the body, Model::InsertForReaders on F for the
 //                  body only (every force in F then acts on the motor side; friction blocks keep
 //                  reading the body's velocity). On the same bodies as rotor_inertia, free inertia
-//                  or not. No parameter has a neutral value (the rigid limit is K -> infinity), so
-//                  there is no score test: Candidate::structural, re-fitted in every round with
+//                  or not. The split keeps the axis' total inertia M_tot (the body's value when
+//                  applied): the body (load side) gets M = M_tot / (1 + r) and is held there, the
+//                  motor side the block's J = r M (r = kDefaultCouplingInertiaRatio, 1/4: a fifth
+//                  of the total), so the two-mass axis starts as heavy as the rigid one; J, free
+//                  in the re-fit, carries a change of the total. The body's inertia is held
+//                  because the block's deflection equation reads it as its option M, which a
+//                  re-fit moving the parameter would leave stale (the deflection would then not be
+//                  q_m - q). No parameter has a neutral value (the rigid limit is K -> infinity),
+//                  so there is no score test: Candidate::structural, re-fitted in every round with
 //                  J, K, c held first while K is profiled over modes at 1, 2, 4 and 8 % of the
-//                  sample rate (ShapeGrid kSampleRateSquared), then freed (screening.h). The
-//                  block's body inertia option M is the body's value when applied; a re-fit that
-//                  moves a free M leaves the option at the start value (the two-mass dynamics
-//                  stay consistent, the split of the total differs slightly). Detail "two-mass,
-//                  force on the motor side", attachment "force F -> <body>". Not proposed: an
-//                  elastic transmission where the controller reads the motor side while the data
-//                  log the load side (the motor position q + e is not an output of the block).
+//                  sample rate (ShapeGrid kSampleRateSquared), then freed (screening.h; always a
+//                  contender). Detail "two-mass, force on the motor side", attachment "force F ->
+//                  <body>". Where controllers read the axis position, a second variant "two-mass,
+//                  force and feedback on the motor side" closes their loop on the motor side: they
+//                  read q + e and, those that read the axis velocity, qd + ed (unit gains in
+//                  series, fixed). Not proposed: an elastic transmission where the data log the
+//                  motor side (the motor position q + e is not an output of the block). No
+//                  declarative form (Candidate::augmentation empty): the re-run sets the body's
+//                  inertia to the split in the problem file and adds the coupling.
 //
 // Structural choices are the variants above (sensor with or without feedback, payload direction,
 // presliding Dahl or LuGre, ripple period, the Coulomb smoothing); friction on the motor or the
@@ -355,10 +365,10 @@ struct Candidate {
   /// test (`screened` is empty); it is re-fitted in every round instead (screening.h).
   bool structural = false;
   /// The candidate as a problem file states it (a [[model.augment]] table; the parameters outside
-  /// `refit` are fixed): every candidate but the elasticity variant that also moves the
-  /// controller's feedback to the motor side (three blocks) and those that change a block of the
-  /// model (a freed inertia, a joint's backlash form: the re-run frees the parameter or sets the
-  /// block's option in the problem file) (empty type). A chosen option
+  /// `refit` are fixed): every candidate but elasticity (it splits the body's inertia, and its
+  /// second variant moves the controller's feedback to the motor side) and those that change a
+  /// block of the model (a freed inertia, a joint's backlash form: the re-run frees the parameter
+  /// or sets the block's option in the problem file) (empty type). A chosen option
   /// (CandidateScore::shape_start) is not in it. Options that apply() reads from the model's
   /// parameters (a load's axis_inertia, backlash's stiffness and damping, the polytropic
   /// correction's temperature) hold the values at enumeration; AugmentationFor gives them for

@@ -131,7 +131,9 @@
 //      moves and raised the validation error by 12 %); otherwise A is kept, the reason in
 //      RefitResult::stages. Stage B runs only for the round's contenders, after every re-fit's
 //      stage A: a re-fit whose stage-A validation gain is below ScreeningOptions::contender_share
-//      of the round's best keeps its shapes held.
+//      of the round's best keeps its shapes held. A structural candidate (elasticity) is always
+//      a contender when its stage A is ok: its stage A holds its own parameters at guesses, not
+//      at screened values, and only stage B fits them.
 // The stages share the re-fit's time budget (ScreeningOptions::refit_max_seconds): once it is
 // spent the remaining grid values and stage B are skipped and A's best point is the re-fit.
 // Divergence test (Ipopt solves; Ceres' trust region never raises its cost): a solve is stopped
@@ -244,6 +246,7 @@ struct ScreeningOptions {
   /// profiled values; RefitResult::stages says so): a shape that cannot make its effect the
   /// round's best need not be freed, and stage B is the longest part of a re-fit (on EMPS a
   /// Stribeck re-fit's stage B ran into its budget in rounds where it gained 1 % of the best's).
+  /// Structural candidates are always contenders (file comment).
   double contender_share = 0.5;
   /// Threads that screen and re-fit candidates side by side (>= 0; 0: one per hardware thread).
   /// Each candidate has its own FitSession; Ceres solves run in parallel, Ipopt's own code

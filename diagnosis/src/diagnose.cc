@@ -134,7 +134,13 @@ std::string Verdict(const DiagnosisReport& d) {
         equally += (equally.empty() ? "" : ", ") + effect;
       }
     }
-    v += a.effect + " (" + a.detail + (equally.empty() ? "" : "; equally: " + equally) + ") " +
+    // Parameters without a finite interval, by their names in the block.
+    std::string unidentified;
+    for (const std::string& q : a.unidentified) {
+      unidentified += (unidentified.empty() ? "" : ", ") + q.substr(q.rfind('.') + 1);
+    }
+    v += a.effect + " (" + a.detail + (equally.empty() ? "" : "; equally: " + equally) +
+         (unidentified.empty() ? "" : "; not identified: " + unidentified) + ") " +
          (gap ? "closes " + Percent(a.gap_closed) : "removes " + Percent(a.error_share));
   }
   v += gap ? " of the gap (" : " of the " + d.validation_role + " NRMSE (";
@@ -409,7 +415,12 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   d.final_problem = current;
   d.final_fit = current_fit;
   for (AcceptedEffect& a : d.accepted) {
-    for (est::FitParameter& p : a.parameters) p = d.final_fit.Parameter(p.name);
+    for (est::FitParameter& p : a.parameters) {
+      p = d.final_fit.Parameter(p.name);
+      if (p.free && !(std::isfinite(p.ci_low) && std::isfinite(p.ci_high))) {
+        a.unidentified.push_back(p.name);
+      }
+    }
   }
   d.final_validation_nrmse =
       d.accepted.empty() ? d.nominal_validation_nrmse : d.accepted.back().validation_nrmse_after;
@@ -487,9 +498,12 @@ std::string DiagnosisReport::FullReport() const {
                   100.0 * a.error_share, 100.0 * a.gap_closed, a.lr_statistic, a.dof, a.lr_p_value);
     o << line;
     for (const auto& p : a.parameters) {
-      std::snprintf(line, sizeof(line), "       %-32s %12.5g +- %-10.3g [%.5g, %.5g] %s%s\n",
-                    p.name.c_str(), p.value, p.std_error, p.ci_low, p.ci_high, p.unit.c_str(),
-                    p.free ? "" : "  (held)");
+      const bool unidentified =
+          std::find(a.unidentified.begin(), a.unidentified.end(), p.name) != a.unidentified.end();
+      std::snprintf(
+          line, sizeof(line), "       %-32s %12.5g +- %-10.3g [%.5g, %.5g] %s%s\n", p.name.c_str(),
+          p.value, p.std_error, p.ci_low, p.ci_high, p.unit.c_str(),
+          p.free ? (unidentified ? "  (not identified: no finite interval)" : "") : "  (held)");
       o << line;
     }
   }

@@ -303,6 +303,7 @@ std::string DiagnosisJson(const DiagnosisReport& d,
     aj["dof"] = a.dof;
     aj["alternatives"] = a.alternatives;
     aj["parameters"] = ParametersJson(a.parameters);
+    aj["unidentified"] = a.unidentified;
     accepted.push_back(aj);
   }
   j["accepted"] = accepted;

@@ -117,6 +117,20 @@ TEST(Diagnose, ForwardSelectionFindsBothWithheldFrictions) {
       EXPECT_EQ(d.final_problem.built.parameters[i].free, refit.fit.Parameter(q).free) << q;
     }
   }
+  // `unidentified` lists exactly the effect's free parameters without a finite interval, and the
+  // verdict names them.
+  bool any_unidentified = false;
+  for (const AcceptedEffect& a : d.accepted) {
+    std::vector<std::string> expected;
+    for (const est::FitParameter& p : a.parameters) {
+      if (p.free && !(std::isfinite(p.ci_low) && std::isfinite(p.ci_high))) {
+        expected.push_back(p.name);
+      }
+    }
+    EXPECT_EQ(a.unidentified, expected) << a.effect;
+    any_unidentified = any_unidentified || !expected.empty();
+  }
+  EXPECT_EQ(d.verdict.find("not identified") != std::string::npos, any_unidentified) << d.verdict;
   // A third round was screened and refused.
   ASSERT_EQ(d.rounds.size(), 3u);
   EXPECT_FALSE(d.rounds.back().accepted);
@@ -174,6 +188,7 @@ TEST(Diagnose, JsonHasTheDocumentedKeys) {
   EXPECT_EQ(a.at("effect").get<std::string>(), d.accepted[0].effect);
   EXPECT_FALSE(a.at("attachment").get<std::string>().empty());
   EXPECT_DOUBLE_EQ(a.at("error_share").get<double>(), d.accepted[0].error_share);
+  EXPECT_EQ(a.at("unidentified").get<std::vector<std::string>>(), d.accepted[0].unidentified);
   EXPECT_TRUE(j.contains("reference"));
   EXPECT_EQ(j.at("rounds").at(0).at("screened").size(), d.rounds[0].screening.screened.size());
   EXPECT_EQ(j.at("localization").at("entries").size(), d.nominal_localization.entries.size());

@@ -81,7 +81,9 @@
 //    0.012; below the flexible reference's 0.081: the whole gap closed)")
 //   "... ; not explained by the candidate library (best: viscous, 0.4 %, not significant)".
 // Effects the data cannot tell apart from an accepted one (AcceptedEffect::alternatives) are named
-// after it: "asymmetric_friction (friction.offset; equally: sensor_offset, payload)".
+// after it: "asymmetric_friction (friction.offset; equally: sensor_offset, payload)"; its free
+// parameters without a finite interval in the final fit (AcceptedEffect::unidentified) too:
+// "stribeck (friction.stribeck; not identified: fc, fs)".
 // DiagnosisReport::explained: see "Explained or not" above; with effects accepted but the gap not
 // explained: "...; coulomb (...) removes 4 % of the validation NRMSE, but the candidate library
 // does not explain the gap: 93 % of the residual's structured energy remains, in <place>".
@@ -158,6 +160,11 @@ struct AcceptedEffect {
   /// The effect's parameters in the final model (values, standard errors, 95 % intervals of the
   /// final fit, after every accepted effect).
   std::vector<estimators::FitParameter> parameters;
+  /// Those of `parameters` that are free in the final fit but have no finite 95 % interval (the
+  /// final fit's information matrix does not bound them: the data do not tell them apart, a
+  /// Stribeck curve's Coulomb and static levels fitted to a saturating static map); the effect's
+  /// error reduction stands, these values do not. Names in `parameters`' order.
+  std::vector<std::string> unidentified;
 };
 
 /// One round of forward selection: the screening and re-fits on the model of that round, and the

@@ -359,10 +359,11 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
                    (is_payload ? ", position " + axis.position : "");
     c.instance = FreshInstance(problem.model, var.effect, taken);
     if (is_payload && !prismatic && !body.mass_free) c.reduces_to.push_back("rotor_inertia");
-    // The elastic split keeps the axis' total inertia M_tot: the body (the load side) takes
-    // M = M_tot / (1 + r), the motor side the block's nominal J = r M (r the coupling's
-    // kDefaultCouplingInertiaRatio), so J + M = M_tot.
-    const double load_share = 1.0 / (1.0 + models::kDefaultCouplingInertiaRatio);
+    // The elastic split keeps the axis' total inertia M_tot: the motor side takes the share s,
+    // J = s M_tot, the body (the load side) M = (1 - s) M_tot, so J + M = M_tot. The first share
+    // is the block's nominal J = r M (r = kDefaultCouplingInertiaRatio): s = r / (1 + r).
+    const double first_share =
+        models::kDefaultCouplingInertiaRatio / (1.0 + models::kDefaultCouplingInertiaRatio);
     if (is_elastic) {
       // No score test; the stiffness profiled over modes at 1, 2, 4 and 8 % of the sample rate
       // (K = (2 pi f)^2 J_eff, J_eff = J M / (J + M) = r M_tot / (1 + r)^2 at the split).
@@ -374,6 +375,11 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
       }
       c.shape_grids.push_back(
           {c.instance + ".K", Candidate::ShapeGrid::Scale::kSampleRateSquared, "", factors});
+      // How the inertia splits, a structural choice: the motor side's share of the total.
+      c.option_grids.push_back({kMotorShareOption,
+                                Candidate::ShapeGrid::Scale::kAbsolute,
+                                "",
+                                {first_share, 0.45, 0.7}});
     }
     const auto block = models::BlockRegistry::Global().Create(var.type, options(mass_now));
     std::vector<std::string> held = SplitParameters(*block, &c);
@@ -412,22 +418,32 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
         velocity_readers.push_back(b.instance);
       }
     }
-    c.apply = [options, instance, force, reader, mass, type, extra, held, is_elastic, load_share,
-               motor_feedback, position, velocity, controllers, velocity_readers,
-               unit](models::Model* m) {
+    // `share`: the elastic split's motor share (unused by the other loads).
+    auto apply_share = [options, instance, force, reader, mass, type, extra, held, is_elastic,
+                        motor_feedback, position, velocity, controllers, velocity_readers,
+                        unit](models::Model* m, double share) {
       // The body's inertia as the model has it now (the nominal fit's value in screening).
-      double body_inertia = m->Parameter(mass).value;
+      const double total = m->Parameter(mass).value;
+      double body_inertia = total;
       if (is_elastic) {
         // The split of the total (above), the body's inertia held there: the coupling's
         // deflection equation uses it as the option M, which a re-fit that moved the body's
         // parameter would leave stale (loads.h); J, free, carries a change of the total.
-        body_inertia *= load_share;
+        body_inertia = (1.0 - share) * total;
         m->SetParameter(mass, body_inertia);
         m->Fix(mass);
       }
       const auto b = std::shared_ptr<const models::Block>(
           models::BlockRegistry::Global().Create(type, options(body_inertia)));
       m->InsertForReaders(force, instance, b, {reader}, extra);
+      if (is_elastic) {
+        // J at the share; K and c give the block's nominal mode (frequency and damping ratio).
+        const double j = share * total, j_eff = j * body_inertia / (j + body_inertia);
+        const double w0 = 2.0 * M_PI * models::kDefaultCouplingFrequency;
+        m->SetParameter(instance + ".J", j);
+        m->SetParameter(instance + ".K", w0 * w0 * j_eff);
+        m->SetParameter(instance + ".c", 2.0 * models::kDefaultCouplingDamping * w0 * j_eff);
+      }
       for (const auto& q : held) m->Fix(q);
       if (motor_feedback) {
         // The controllers read the motor side: position q + e (a unit gain in series on q for
@@ -453,6 +469,8 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
         }
       }
     };
+    c.apply = [apply_share, first_share](models::Model* m) { apply_share(m, first_share); };
+    if (is_elastic) c.apply_with_option = apply_share;
     out->push_back(std::move(c));
   }
 }

@@ -52,10 +52,12 @@ class Stopwatch {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// The likelihood-ratio test of step 3(b) between two nested least-squares fits.
-void LikelihoodRatio(const est::FitResult& before, const est::FitResult& after, double* lr,
-                     double* p, int* dof) {
-  *dof = NumFree(after) - NumFree(before);
+// The likelihood-ratio test of step 3(b) between two nested least-squares fits; `chosen`
+// parameters of `after` were estimated without being free in it (a structural candidate's held
+// parameters, chosen by its grids).
+void LikelihoodRatio(const est::FitResult& before, const est::FitResult& after, int chosen,
+                     double* lr, double* p, int* dof) {
+  *dof = NumFree(after) - NumFree(before) + chosen;
   const double n = after.num_residuals;
   const double rss0 = 2.0 * before.solver_result.cost;
   const double rss1 = 2.0 * after.solver_result.cost;
@@ -328,8 +330,17 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
       r.reason = best == nullptr ? "no candidate could be re-fitted"
                                  : "no successful re-fit (" + best->failure + ")";
     } else {
+      // A structural candidate's own parameters are estimated whether its re-fit freed them or
+      // held them at its grids' choice (the split and the stiffness); it may hold a nominal
+      // parameter instead (the elastic split's body inertia), which NumFree counts.
+      int chosen = 0;
+      if (best->candidate.structural) {
+        for (const std::string& q : best->candidate.refit) {
+          if (!best->fit.Parameter(q).free) ++chosen;
+        }
+      }
       int dof = 0;
-      LikelihoodRatio(current_fit, best->fit, &r.lr_statistic, &r.lr_p_value, &dof);
+      LikelihoodRatio(current_fit, best->fit, chosen, &r.lr_statistic, &r.lr_p_value, &dof);
       r.relative_gain = (before - best->validation_nrmse_after) / before;
       const std::string name = best->effect + " (" + best->detail + ")";
       if (best->at_bound) {

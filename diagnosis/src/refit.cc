@@ -311,12 +311,35 @@ void RefitRun::StageA() {
         est::Problem variant_problem = AugmentedProblem(problem, nominal, variant, false);
         auto variant_session = std::make_unique<est::FitSession>(
             variant_problem, AugmentedSplits(splits, variant_problem.built.NumStates()), fo);
+        // A structural candidate's option sets its held parameters itself (the elastic split:
+        // the body's inertia, J, K, c): only the free ones start from the best fit.
         for (const est::FitParameter& p : a.parameters) {
+          if (c.structural &&
+              !variant_problem.built.parameters[variant_problem.built.ParameterIndex(p.name)]
+                   .free) {
+            continue;
+          }
           variant_session->SetParameterValue(p.name, p.value);
         }
         std::swap(session, variant_session);
         budget_left();
         est::FitResult trial = timed_solve(nullptr);
+        // A structural candidate's shape grids are profiled again at each option (the mode a
+        // stiffness gives depends on the split).
+        for (const auto& [shape, values] : screened.shape_grid_values) {
+          if (!c.structural || !trial.IsSolutionUsable()) break;
+          double best_shape = trial.Parameter(shape).value;
+          for (const double s : values) {
+            if (s == best_shape || !budget_left()) continue;
+            session->SetParameterValue(shape, s);
+            est::FitResult t = timed_solve(&trial);
+            if (validates_better(t, trial)) {
+              trial = std::move(t);
+              best_shape = s;
+            }
+          }
+          session->SetParameterValue(shape, best_shape);
+        }
         if (validates_better(trial, a)) {
           a = std::move(trial);
           best_value = v;

@@ -359,6 +359,21 @@ CandidateScore Score(const est::Problem& problem, const std::vector<est::SplitDa
       // No score test; the grids' values are profiled by the re-fit.
       out.method = "structural";
       out.score = out.p_value = kNaN;
+      // The option grid's values, the first the one apply() uses: the re-fit profiles them.
+      if (!candidate.option_grids.empty() && candidate.apply_with_option) {
+        const Candidate::OptionGrid& grid = candidate.option_grids.front();
+        Candidate::ShapeGrid g;
+        g.scale = grid.scale;
+        g.state = grid.state;
+        const double scale = ShapeScale(problem, splits, nominal, g);
+        if (std::isfinite(scale) && scale > 0.0 && !grid.factors.empty()) {
+          for (const double factor : grid.factors) {
+            out.option_grid_values.push_back(grid.inverse ? factor / scale : factor * scale);
+          }
+          out.shape_start.emplace_back(candidate.instance + " option " + grid.option,
+                                       out.option_grid_values.front());
+        }
+      }
       for (const Candidate::ShapeGrid& grid : candidate.shape_grids) {
         const double scale = ShapeScale(problem, splits, nominal, grid);
         if (!(std::isfinite(scale) && scale > 0.0)) continue;

@@ -883,6 +883,25 @@ TEST(Candidates, ElasticityIsAStructuralTwoMassVariant) {
   EXPECT_NEAR(load_side + l.Parameter(loop[1].instance + ".J").value, total, kRoundoff * total);
   EXPECT_NEAR(load_side, total / (1.0 + models::kDefaultCouplingInertiaRatio), kRoundoff * total);
   EXPECT_FALSE(l.Parameter("load.mass").free);
+  // How the inertia splits is its option grid, the first share apply()'s; another share keeps the
+  // total and the block's nominal mode.
+  ASSERT_EQ(loop[1].option_grids.size(), 1u);
+  const Candidate::OptionGrid& split = loop[1].option_grids[0];
+  EXPECT_EQ(split.option, kMotorShareOption);
+  ASSERT_GE(split.factors.size(), 2u);
+  EXPECT_NEAR(split.factors[0], 1.0 - load_side / total, kRoundoff);
+  constexpr double kShare = 0.45;
+  models::Model s = ClosedLoop();
+  ASSERT_TRUE(loop[1].apply_with_option);
+  loop[1].apply_with_option(&s, kShare);
+  const double j = s.Parameter(loop[1].instance + ".J").value;
+  const double body = s.Parameter("load.mass").value;
+  EXPECT_NEAR(j, kShare * total, kRoundoff * total);
+  EXPECT_NEAR(body, (1.0 - kShare) * total, kRoundoff * total);
+  const double omega =
+      std::sqrt(s.Parameter(loop[1].instance + ".K").value * (1.0 / j + 1.0 / body));
+  EXPECT_NEAR(omega, 2.0 * kPi * models::kDefaultCouplingFrequency, kRoundoff * omega);
+  EXPECT_NO_THROW(s.Build());
 }
 
 }  // namespace

@@ -248,17 +248,21 @@
 //                  body only (every force in F then acts on the motor side; friction blocks keep
 //                  reading the body's velocity). On the same bodies as rotor_inertia, free inertia
 //                  or not. The split keeps the axis' total inertia M_tot (the body's value when
-//                  applied): the body (load side) gets M = M_tot / (1 + r) and is held there, the
-//                  motor side the block's J = r M (r = kDefaultCouplingInertiaRatio, 1/4: a fifth
-//                  of the total), so the two-mass axis starts as heavy as the rigid one; J, free
-//                  in the re-fit, carries a change of the total. The body's inertia is held
+//                  applied): the motor side gets J = s M_tot, the body (load side) M = (1 - s)
+//                  M_tot, held there, so the two-mass axis starts as heavy as the rigid one; J,
+//                  free in the re-fit, carries a change of the total. The body's inertia is held
 //                  because the block's deflection equation reads it as its option M, which a
 //                  re-fit moving the parameter would leave stale (the deflection would then not be
-//                  q_m - q). No parameter has a neutral value (the rigid limit is K -> infinity),
-//                  so there is no score test: Candidate::structural, re-fitted in every round with
-//                  J, K, c held first while K is profiled over modes at 1, 2, 4 and 8 % of the
-//                  sample rate (ShapeGrid kSampleRateSquared), then freed (screening.h; always a
-//                  contender). Detail "two-mass, force on the motor side", attachment "force F ->
+//                  q_m - q). How the inertia splits is the candidate's option grid
+//                  (kMotorShareOption): s = 0.2 (apply(); the block's nominal J = M / 4), 0.45 and
+//                  0.7, each with K and c at the block's nominal mode (20 Hz, damping ratio 0.1).
+//                  No parameter has a neutral value (the rigid limit is K -> infinity), so there
+//                  is no score test: Candidate::structural, re-fitted in every round with J, K, c
+//                  held first while K is profiled over modes at 1, 2, 4 and 8 % of the sample
+//                  rate (ShapeGrid kSampleRateSquared) at every share, then freed (screening.h;
+//                  always a contender). Its likelihood-ratio test counts J, K, c as estimated
+//                  whether freed or held at the grids' choice, less the body's inertia it holds
+//                  (diagnose.h). Detail "two-mass, force on the motor side", attachment "force F ->
 //                  <body>". Where controllers read the axis position, a second variant "two-mass,
 //                  force and feedback on the motor side" closes their loop on the motor side: they
 //                  read q + e and, those that read the axis velocity, qd + ed (unit gains in
@@ -287,6 +291,10 @@
 #include "graybox/models/model.h"
 
 namespace graybox::diagnosis {
+
+/// The option of the elasticity candidate's grid (Candidate::option_grids): the motor side's
+/// share of the axis' total inertia (file comment).
+inline constexpr char kMotorShareOption[] = "motor_share";
 
 /// One candidate effect: an augmentation of the model at its neutral value.
 struct Candidate {

@@ -24,8 +24,10 @@
 //      (b) the likelihood-ratio test on the estimation residuals rejects "no effect":
 //            LR = N ln(RSS_{r-1} / RSS_r),   p = Q_chi2(LR; k),   p < significance,
 //          N = number of residuals, RSS = 2 x the method's least-squares cost, k = the number of
-//          free parameters the effect adds (Gaussian noise of unknown variance; the statistic is
-//          the deviance difference of the two nested fits);
+//          free parameters the effect adds, and for a structural candidate also its own
+//          parameters its re-fit held at its grids' choice (elasticity: J, K, c are estimated
+//          either way, less the body's inertia it holds) (Gaussian noise of unknown variance; the
+//          statistic is the deviance difference of the two nested fits);
 //      (c) the validation NRMSE falls by at least min_relative_gain of its value before the step:
 //            (e_{r-1} - e_r) / e_{r-1} >= min_relative_gain,
 //          so that an effect must help on data it was not fitted to, by a margin that matters.
@@ -151,7 +153,7 @@ struct AcceptedEffect {
   double error_share = 0.0;  // shrinkage / nominal validation NRMSE
   double gap_closed = 0.0;   // shrinkage / gap (NaN without a gap)
   double lr_statistic = 0.0, lr_p_value = 1.0;
-  int dof = 0;  // free parameters the effect added
+  int dof = 0;  // parameters the effect added: k of the likelihood-ratio test (file comment)
   /// The other re-fits of the same round whose validation NRMSE is within min_relative_gain x
   /// e_before of this one's: effects the data do not tell apart from it (a constant force on an
   /// axis, a vertical payload's weight and an offset of a logged command can be one signature),

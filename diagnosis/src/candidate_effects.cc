@@ -396,6 +396,8 @@ void AddLoads(const estimators::Problem& problem, const MechanicalAxis& axis, bo
         is_payload ? std::vector<std::string>{axis.position} : std::vector<std::string>{};
     const bool motor_feedback = is_elastic && var.detail.find("feedback") != std::string::npos;
     if (motor_feedback) c.attachment += ", controller " + Join(controllers) + " on q + e";
+    // Elasticity reads the body's inertia too (its split); it has no declarative form.
+    if (is_elastic) c.options_from_parameters = {{"axis_inertia", body.mass}};
     if (!is_elastic) {
       c.augmentation = {models::Augmentation::Kind::kForReaders,
                         c.instance,

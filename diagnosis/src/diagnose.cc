@@ -331,13 +331,16 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
                                  : "no successful re-fit (" + best->failure + ")";
     } else {
       // A structural candidate's own parameters are estimated whether its re-fit freed them or
-      // held them at its grids' choice (the split and the stiffness); it may hold a nominal
-      // parameter instead (the elastic split's body inertia), which NumFree counts.
+      // held them at its grids' choice, and so is the option its grid chose (the split); it may
+      // hold a nominal parameter instead (the elastic split's body inertia), which NumFree
+      // counts.
       int chosen = 0;
       if (best->candidate.structural) {
         for (const std::string& q : best->candidate.refit) {
           if (!best->fit.Parameter(q).free) ++chosen;
         }
+        // The option its grid chose (the split).
+        if (!best->candidate.option_grids.empty()) ++chosen;
       }
       int dof = 0;
       LikelihoodRatio(current_fit, best->fit, chosen, &r.lr_statistic, &r.lr_p_value, &dof);
@@ -428,7 +431,8 @@ DiagnosisReport Diagnose(const est::Problem& problem, const std::vector<est::Spl
   for (AcceptedEffect& a : d.accepted) {
     for (est::FitParameter& p : a.parameters) {
       p = d.final_fit.Parameter(p.name);
-      if (p.free && !(std::isfinite(p.ci_low) && std::isfinite(p.ci_high))) {
+      if (d.final_fit.has_uncertainty && p.free &&
+          !(std::isfinite(p.ci_low) && std::isfinite(p.ci_high))) {
         a.unidentified.push_back(p.name);
       }
     }

@@ -45,7 +45,18 @@ std::string AugmentText(const RefitResult& f) {
 
 std::string ParameterLines(const RefitResult& f) {
   std::string text;
-  for (const est::FitParameter& p : f.parameters) {
+  std::vector<est::FitParameter> lines;
+  // A structural candidate's change of a model parameter it reads (the elastic split's body
+  // inertia, held at the split) comes first: the re-run sets it.
+  if (f.candidate.structural && f.fit.IsSolutionUsable()) {
+    for (const auto& [option, parameter] : f.candidate.options_from_parameters) {
+      for (const est::FitParameter& p : f.fit.parameters) {
+        if (p.name == parameter) lines.push_back(p);
+      }
+    }
+  }
+  lines.insert(lines.end(), f.parameters.begin(), f.parameters.end());
+  for (const est::FitParameter& p : lines) {
     char line[256];
     std::snprintf(line, sizeof(line), "\"%s\" = { value = %.10g, free = %s }\n", p.name.c_str(),
                   p.value, p.free ? "true" : "false");

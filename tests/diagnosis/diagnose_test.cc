@@ -123,7 +123,8 @@ TEST(Diagnose, ForwardSelectionFindsBothWithheldFrictions) {
   for (const AcceptedEffect& a : d.accepted) {
     std::vector<std::string> expected;
     for (const est::FitParameter& p : a.parameters) {
-      if (p.free && !(std::isfinite(p.ci_low) && std::isfinite(p.ci_high))) {
+      if (d.final_fit.has_uncertainty && p.free &&
+          !(std::isfinite(p.ci_low) && std::isfinite(p.ci_high))) {
         expected.push_back(p.name);
       }
     }

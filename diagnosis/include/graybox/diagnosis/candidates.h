@@ -259,17 +259,20 @@
 //                  No parameter has a neutral value (the rigid limit is K -> infinity), so there
 //                  is no score test: Candidate::structural, re-fitted in every round with J, K, c
 //                  held first while K is profiled over modes at 1, 2, 4 and 8 % of the sample
-//                  rate (ShapeGrid kSampleRateSquared) at every share, then freed (screening.h;
-//                  always a contender). Its likelihood-ratio test counts J, K, c as estimated
-//                  whether freed or held at the grids' choice, less the body's inertia it holds
-//                  (diagnose.h). Detail "two-mass, force on the motor side", attachment "force F ->
-//                  <body>". Where controllers read the axis position, a second variant "two-mass,
-//                  force and feedback on the motor side" closes their loop on the motor side: they
-//                  read q + e and, those that read the axis velocity, qd + ed (unit gains in
-//                  series, fixed). Not proposed: an elastic transmission where the data log the
-//                  motor side (the motor position q + e is not an output of the block). No
-//                  declarative form (Candidate::augmentation empty): the re-run sets the body's
-//                  inertia to the split in the problem file and adds the coupling.
+//                  rate (ShapeGrid kSampleRateSquared; the same K values at the other shares, where
+//                  the larger J_eff puts their modes at 0.80 and 0.87 x those frequencies), then
+//                  freed (screening.h; always a contender). Its likelihood-ratio test counts J,
+//                  K, c and the split as estimated whether freed or held at the grids' choice,
+//                  less the body's inertia it holds (diagnose.h). The re-fit's parameters_toml
+//                  gives the body's held inertia first (options_from_parameters). Detail "two-mass,
+//                  force on the motor side", attachment "force F -> <body>". Where controllers read
+//                  the axis position, a second variant "two-mass, force and feedback on the motor
+//                  side" closes their loop on the motor side: they read q + e and, those that read
+//                  the axis velocity, qd + ed (unit gains in series, fixed). Not proposed: an
+//                  elastic transmission where the data log the motor side (the motor position q + e
+//                  is not an output of the block). No declarative form (Candidate::augmentation
+//                  empty): the re-run sets the body's inertia to the split (its line in
+//                  parameters_toml) and adds the coupling.
 //
 // Structural choices are the variants above (sensor with or without feedback, payload direction,
 // presliding Dahl or LuGre, ripple period, the Coulomb smoothing); friction on the motor or the

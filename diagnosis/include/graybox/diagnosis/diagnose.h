@@ -25,8 +25,9 @@
 //            LR = N ln(RSS_{r-1} / RSS_r),   p = Q_chi2(LR; k),   p < significance,
 //          N = number of residuals, RSS = 2 x the method's least-squares cost, k = the number of
 //          free parameters the effect adds, and for a structural candidate also its own
-//          parameters its re-fit held at its grids' choice (elasticity: J, K, c are estimated
-//          either way, less the body's inertia it holds) (Gaussian noise of unknown variance; the
+//          parameters its re-fit held at its grids' choice and the option its grid chose
+//          (elasticity: J, K, c and the split are estimated either way, less the body's inertia
+//          it holds: k = 3) (Gaussian noise of unknown variance; the
 //          statistic is the deviance difference of the two nested fits);
 //      (c) the validation NRMSE falls by at least min_relative_gain of its value before the step:
 //            (e_{r-1} - e_r) / e_{r-1} >= min_relative_gain,
@@ -162,10 +163,10 @@ struct AcceptedEffect {
   /// The effect's parameters in the final model (values, standard errors, 95 % intervals of the
   /// final fit, after every accepted effect).
   std::vector<estimators::FitParameter> parameters;
-  /// Those of `parameters` that are free in the final fit but have no finite 95 % interval (the
-  /// final fit's information matrix does not bound them: the data do not tell them apart, a
-  /// Stribeck curve's Coulomb and static levels fitted to a saturating static map); the effect's
-  /// error reduction stands, these values do not. Names in `parameters`' order.
+  /// Those of `parameters` that are free in the final fit but have no finite 95 % interval while
+  /// the final fit has a covariance (its information matrix does not bound them: the data do not
+  /// tell them apart, a Stribeck curve's Coulomb and static levels fitted to a saturating static
+  /// map); the effect's error reduction stands, these values do not. Names in `parameters`' order.
   std::vector<std::string> unidentified;
 };
 

@@ -112,7 +112,10 @@
 //      validation NRMSE is kept with its structure (RefitResult::candidate applies it; its
 //      augmentation names the option). The score picked a Coulomb level's softest sign on a
 //      pendulum whose truth had a hard one; that re-fit validated 20 times worse than the
-//      steepest sign's, which a Stribeck curve with fs = fc then fitted in its place.
+//      steepest sign's, which a Stribeck curve with fs = fc then fitted in its place. A structural
+//      candidate's option (the elastic split) sets its held parameters itself: its new session
+//      takes only the free parameters from the best fit, and its shape grids are profiled again
+//      at each option value.
 //      Second start: when this warm-started solve converged but a nominal free parameter ends at
 //      a bound in the nominal fit or in it, stage A is solved once more from the problem's own
 //      start values of the nominal parameters (the user's guesses in the first round; the

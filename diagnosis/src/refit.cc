@@ -265,25 +265,34 @@ void RefitRun::StageA() {
         }
       }
     }
-    // The profile over each shape grid: stage A at every other grid value (a fixed value
-    // changes, so each solve is warm-started from the best so far), the lowest cost kept.
-    for (const auto& [shape, values] : screened.shape_grid_values) {
-      if (!a.IsSolutionUsable()) break;
-      double best_value = a.Parameter(shape).value;
-      const double first = best_value;
+    // The profile over one shape grid on the current session: stage A at every other grid value
+    // (a fixed value changes, so each solve is warm-started from the best so far), the converged
+    // solve of lowest validation NRMSE kept in *fit and its value in *best_value, the session
+    // left at it. Returns the number of values tried, the start's included.
+    auto profile_shape = [&](const std::string& shape, const std::vector<double>& values,
+                             est::FitResult* fit, double* best_value) {
+      *best_value = fit->Parameter(shape).value;
+      const double first = *best_value;
       std::size_t tried = 1;
       for (const double v : values) {
         if (v == first) continue;
         if (!budget_left()) break;
         ++tried;
         session->SetParameterValue(shape, v);
-        est::FitResult trial = timed_solve(&a);
-        if (validates_better(trial, a)) {
-          a = std::move(trial);
-          best_value = v;
+        est::FitResult trial = timed_solve(fit);
+        if (validates_better(trial, *fit)) {
+          *fit = std::move(trial);
+          *best_value = v;
         }
       }
-      session->SetParameterValue(shape, best_value);
+      session->SetParameterValue(shape, *best_value);
+      return tried;
+    };
+    for (const auto& [shape, values] : screened.shape_grid_values) {
+      if (!a.IsSolutionUsable()) break;
+      const double first = a.Parameter(shape).value;
+      double best_value = first;
+      const std::size_t tried = profile_shape(shape, values, &a, &best_value);
       char line[160];
       std::snprintf(line, sizeof(line),
                     "%s profiled over %zu of %zu grid values%s: %.4g (score's %.4g)", shape.c_str(),
@@ -328,17 +337,8 @@ void RefitRun::StageA() {
         // stiffness gives depends on the split).
         for (const auto& [shape, values] : screened.shape_grid_values) {
           if (!c.structural || !trial.IsSolutionUsable()) break;
-          double best_shape = trial.Parameter(shape).value;
-          for (const double s : values) {
-            if (s == best_shape || !budget_left()) continue;
-            session->SetParameterValue(shape, s);
-            est::FitResult t = timed_solve(&trial);
-            if (validates_better(t, trial)) {
-              trial = std::move(t);
-              best_shape = s;
-            }
-          }
-          session->SetParameterValue(shape, best_shape);
+          double best_shape = 0.0;
+          profile_shape(shape, values, &trial, &best_shape);
         }
         if (validates_better(trial, a)) {
           a = std::move(trial);
